@@ -1,0 +1,469 @@
+"""Peripheral models of the PIC/dsPIC boards (Renode style).
+
+Each class models only the registers and behaviour the schmidt-fil firmware uses, holds its
+mutable runtime state apart from its configuration, and has ``reset()`` restoring the power-on
+state. Peripherals meet the outside world through **ports**: plain callables handed in by
+``host/network.py`` (architecture.md, "boards/"). Nothing here imports ``plant/``, reads the
+wall clock, sleeps or starts threads; time comes from the :class:`bus.scheduler.Scheduler`.
+
+Sources: dsPIC30F3011 / dsPIC30F family reference manual (MCPWM, QEI, 10-bit ADC modules),
+MCP2515 data sheet (two receive buffers RXB0/RXB1), PIC18F4480 ECAN (legacy mode 0: two receive
+buffers), the paper §3.3-§3.4 (T. S. Kumar and R. N. Banavar, Opt. Eng. 52(8) 081607, 2013).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from typing import Callable, Deque, Dict, List, Optional
+
+import can
+
+from bus.scheduler import PRIO_BACKGROUND, PRIO_ISR, Scheduler
+
+__all__ = [
+    "Timer",
+    "Pwm",
+    "Qei",
+    "Adc",
+    "CanController",
+    "Uart",
+    "StepDir",
+    "FCY_HZ",
+    "PWM_FREQUENCY_HZ",
+]
+
+#: dsPIC30F3011 instruction clock assumed for the duty resolution, Hz (30 MIPS, the device's
+#: maximum; the paper does not state the clock).
+FCY_HZ = 30_000_000
+#: PWM frequency assumed, Hz (above audibility; the paper does not state it).
+PWM_FREQUENCY_HZ = 20_000
+
+
+class Timer:
+    """Periodic hardware timer whose interrupt runs ``isr(now_us)``.
+
+    Parameters
+    ----------
+    scheduler : Scheduler
+        The simulation's single clock.
+    period_us : int
+        Interrupt period, µs (5000 for the axis controller's 5 ms sampling, paper §3.3).
+    isr : callable
+        ``isr(now_us: int)``, the interrupt service routine.
+    priority : int, optional
+        Scheduler priority, default ``PRIO_ISR``.
+    owner : str, optional
+        Owner name shown in :class:`bus.errors.SimulationError`.
+    """
+
+    def __init__(self, scheduler: Scheduler, period_us: int, isr: Callable[[int], None], *,
+                 priority: int = PRIO_ISR, owner: str = "timer") -> None:
+        if int(period_us) <= 0:
+            raise ValueError(f"period_us must be > 0, got {period_us}")
+        self.scheduler = scheduler
+        self.period_us = int(period_us)
+        self.isr = isr
+        self.priority = priority
+        self.owner = owner
+        self._event = None
+        self.ticks = 0
+
+    @property
+    def running(self) -> bool:
+        """True while the timer is enabled (TON bit)."""
+        return self._event is not None
+
+    def start(self, start_us: Optional[int] = None) -> None:
+        """Enable the timer; the first interrupt fires one period after ``start_us`` (default now)."""
+        self.stop()
+        t0 = self.scheduler.now_us if start_us is None else int(start_us)
+        self._event = self.scheduler.call_every(self.period_us, self._fire,
+                                                start_us=t0 + self.period_us,
+                                                priority=self.priority, owner=self.owner)
+
+    def stop(self) -> None:
+        """Disable the timer (pending interrupt cancelled)."""
+        if self._event is not None:
+            self.scheduler.cancel(self._event)
+            self._event = None
+
+    def _fire(self, now_us: int) -> None:
+        self.ticks += 1
+        self.isr(now_us)
+
+    def reset(self) -> None:
+        """Power-on state: stopped, tick count zero."""
+        self.stop()
+        self.ticks = 0
+
+
+class Pwm:
+    """Two-channel motor-control PWM (dsPIC30F MCPWM) with the duty-register quantisation.
+
+    Edge-aligned at ``frequency_hz`` from ``fcy_hz``: PTPER = fcy/f − 1 (1499 at 30 MIPS,
+    20 kHz); the duty registers PDCx count half instruction cycles, so a duty has
+    ``2·(PTPER+1)`` steps (3000, i.e. a quantum of 3.3e-4 = 0.033 %).
+
+    Parameters
+    ----------
+    channels : int
+        Number of channels (2: motor A = positive direction, motor B = negative, paper §3.3).
+    on_change : callable, optional
+        Port ``on_change(duty_a, duty_b)`` called with the quantised duties (0..1) whenever a
+        duty register is written (the plant's ``set_duties``).
+    frequency_hz, fcy_hz : int, optional
+        PWM frequency and instruction clock, Hz (both assumed, see module constants).
+    """
+
+    def __init__(self, channels: int = 2, on_change: Optional[Callable[[float, float], None]] = None,
+                 *, frequency_hz: int = PWM_FREQUENCY_HZ, fcy_hz: int = FCY_HZ) -> None:
+        if channels != 2:
+            raise ValueError("the axis boards use exactly 2 PWM channels")
+        self.channels = channels
+        self.on_change = on_change
+        self.ptper = fcy_hz // frequency_hz - 1
+        self.steps = 2 * (self.ptper + 1)
+        self.enabled = True
+        self.duty_register = [0, 0]
+
+    @property
+    def duty_quantum(self) -> float:
+        """Smallest duty step (fraction of the period)."""
+        return 1.0 / self.steps
+
+    @property
+    def duties(self) -> tuple:
+        """Current quantised duties ``(duty_a, duty_b)``, 0..1 (0 while disabled)."""
+        if not self.enabled:
+            return (0.0, 0.0)
+        return (self.duty_register[0] / self.steps, self.duty_register[1] / self.steps)
+
+    def set_duties(self, duty_a: float, duty_b: float) -> None:
+        """Write both duty registers (values clipped to 0..1 and rounded to the register step)."""
+        regs = []
+        for d in (duty_a, duty_b):
+            d = 0.0 if not math.isfinite(d) else min(1.0, max(0.0, float(d)))
+            regs.append(int(round(d * self.steps)))
+        self.duty_register = regs
+        self._notify()
+
+    def disable(self) -> None:
+        """Override both outputs low (PWM outputs disabled)."""
+        self.enabled = False
+        self._notify()
+
+    def enable(self) -> None:
+        """Re-enable the outputs with the current duty registers."""
+        self.enabled = True
+        self._notify()
+
+    def _notify(self) -> None:
+        if self.on_change is not None:
+            self.on_change(*self.duties)
+
+    def reset(self) -> None:
+        """Power-on state: duties zero, outputs enabled."""
+        self.enabled = True
+        self.duty_register = [0, 0]
+        self._notify()
+
+
+class Qei:
+    """Quadrature encoder interface: 16-bit POSCNT plus the firmware's 32-bit software extension.
+
+    The port returns the encoder's cumulative signed count; the hardware register only holds it
+    modulo 2**16 (MAXCNT = 0xFFFF). :meth:`read_delta` is what the firmware does each tick: read
+    POSCNT, take the signed 16-bit difference from the last read, and add it to a software
+    extension. Correct while fewer than 32768 counts pass between two reads (a 2°/s slew gives
+    ≈3140 counts per 5 ms tick with 4.608e6 counts/rev × 24.5, paper §2.2/§3.2).
+
+    Parameters
+    ----------
+    read_counts : callable
+        Port returning the cumulative encoder count (int, signed, counts).
+    """
+
+    MODULUS = 1 << 16
+
+    def __init__(self, read_counts: Callable[[], int]) -> None:
+        self.read_counts = read_counts
+        self.extended = 0
+        self._last_poscnt = 0
+        self._offset = 0
+
+    @property
+    def poscnt(self) -> int:
+        """The 16-bit POSCNT register, 0..65535."""
+        return (int(self.read_counts()) - self._offset) % self.MODULUS
+
+    def read_delta(self) -> int:
+        """Read POSCNT, update the 32-bit extension and return the signed count change."""
+        p = self.poscnt
+        delta = (p - self._last_poscnt) % self.MODULUS
+        if delta >= self.MODULUS // 2:
+            delta -= self.MODULUS
+        self._last_poscnt = p
+        self.extended = ((self.extended + delta + (1 << 31)) % (1 << 32)) - (1 << 31)
+        return delta
+
+    def reset(self) -> None:
+        """Power-on: POSCNT cleared (the port's present count becomes zero), extension zero."""
+        self._offset = int(self.read_counts())
+        self._last_poscnt = 0
+        self.extended = 0
+
+
+class Adc:
+    """Successive-approximation ADC (10-bit on dsPIC30F3011 and PIC18F4431/4480).
+
+    counts = floor(v / vref · 2**bits), clipped to 0 .. 2**bits − 1. Sampling is synchronous:
+    the firmware triggers :meth:`sample` inside its ISR (on the dsPIC the conversion is started by
+    the PWM special-event trigger at the falling edge where the motor current peaks, §3.3; the
+    shunt voltage reaching the port is taken to be that filtered peak).
+
+    Parameters
+    ----------
+    channels : dict
+        Name → port returning volts.
+    bits : int
+        Resolution (10).
+    vref_v : float
+        Reference voltage, V (5.0).
+    """
+
+    def __init__(self, channels: Dict[str, Callable[[], float]], bits: int = 10,
+                 vref_v: float = 5.0) -> None:
+        self.channels = dict(channels)
+        self.bits = int(bits)
+        self.vref_v = float(vref_v)
+        self.full_scale = (1 << self.bits) - 1
+        self.last: Dict[str, int] = {name: 0 for name in self.channels}
+
+    @property
+    def lsb_v(self) -> float:
+        """One count, V."""
+        return self.vref_v / (1 << self.bits)
+
+    def to_counts(self, volts: float) -> int:
+        """Convert a voltage to counts as the converter does."""
+        if not math.isfinite(volts):
+            return self.full_scale if volts > 0 else 0
+        c = int(math.floor(volts / self.vref_v * (1 << self.bits)))
+        return min(self.full_scale, max(0, c))
+
+    def to_volts(self, counts: int) -> float:
+        """Mid-point voltage of a count, V (counts·lsb)."""
+        return counts * self.lsb_v
+
+    def sample(self, name: str) -> int:
+        """Convert channel ``name`` now; returns counts (also kept in ``last``)."""
+        port = self.channels.get(name)
+        c = 0 if port is None else self.to_counts(float(port()))
+        self.last[name] = c
+        return c
+
+    def reset(self) -> None:
+        """Power-on: result buffers zero."""
+        self.last = {name: 0 for name in self.channels}
+
+
+class CanController:
+    """CAN controller (MCP2515 or the PIC18F4480's ECAN in mode 0) on a python-can bus.
+
+    Receive path: acceptance filter (``accept(arbitration_id)``, the hardware masks/filters) →
+    ``rx_buffers`` hardware receive buffers (2 on both chips; a frame arriving with both full is
+    lost and counted in ``rx_overflows``) → the firmware's receive handler ``on_rx(msg)``.
+    If the bus offers ``set_rx_callback`` (``bus.simbus.SimBus``) the receive interrupt drains the
+    bus at each delivery; otherwise the firmware polls with :meth:`poll` (at most ``rx_buffers``
+    frames survive between two polls, as with a polled MCP2515).
+
+    Transmit: :meth:`send` never raises; a ``can.CanError`` is counted in ``tx_errors``.
+
+    Parameters
+    ----------
+    bus : can.BusABC
+        Any python-can bus (``schmidt-sim``, ``virtual``, ``socketcan`` ...).
+    rx_buffers : int
+        Hardware receive buffers (2).
+    """
+
+    def __init__(self, bus: can.BusABC, rx_buffers: int = 2) -> None:
+        self.bus = bus
+        self.rx_buffers = int(rx_buffers)
+        self.accept: Callable[[int], bool] = lambda arbitration_id: True
+        self.on_rx: Optional[Callable[[can.Message], None]] = None
+        self._hw: Deque[can.Message] = deque()
+        self.rx_overflows = 0
+        self.rx_frames = 0
+        self.tx_frames = 0
+        self.tx_errors = 0
+        self.interrupt_enabled = False
+        self.has_rx_interrupt = hasattr(bus, "set_rx_callback")
+
+    def enable_rx_interrupt(self) -> bool:
+        """Hook the receive interrupt if the bus supports it; returns True if it does."""
+        if self.has_rx_interrupt:
+            self.bus.set_rx_callback(self._rx_interrupt)
+            self.interrupt_enabled = True
+        return self.interrupt_enabled
+
+    def disable_rx_interrupt(self) -> None:
+        """Unhook the receive interrupt."""
+        if self.interrupt_enabled:
+            self.bus.set_rx_callback(None)
+            self.interrupt_enabled = False
+
+    def _fill_buffers(self) -> None:
+        while True:
+            msg = self.bus.recv(timeout=0)
+            if msg is None:
+                return
+            if not self.accept(msg.arbitration_id):
+                continue
+            if len(self._hw) >= self.rx_buffers:
+                self.rx_overflows += 1      # RXnOVR: the frame is lost
+                continue
+            self._hw.append(msg)
+
+    def _service(self) -> None:
+        while self._hw:
+            msg = self._hw.popleft()
+            self.rx_frames += 1
+            if self.on_rx is not None:
+                self.on_rx(msg)
+
+    def _rx_interrupt(self, *args) -> None:
+        # Hardware fills its buffers, then the ISR empties them one by one.
+        self._fill_buffers()
+        self._service()
+
+    def poll(self) -> None:
+        """Polled receive (no interrupt): hardware buffers fill, then the firmware empties them."""
+        self._fill_buffers()
+        self._service()
+
+    def send(self, arbitration_id: int, data: bytes) -> bool:
+        """Transmit a standard-identifier data frame; returns False (and counts) on a bus error."""
+        msg = can.Message(arbitration_id=arbitration_id, data=data, is_extended_id=False)
+        try:
+            self.bus.send(msg)
+        except can.CanError:
+            self.tx_errors += 1
+            return False
+        self.tx_frames += 1
+        return True
+
+    def reset(self) -> None:
+        """Power-on: buffers empty, counters zero, interrupt unhooked (firmware re-enables it)."""
+        self.disable_rx_interrupt()
+        self._hw.clear()
+        self.rx_overflows = 0
+        self.rx_frames = 0
+        self.tx_frames = 0
+        self.tx_errors = 0
+
+
+class Uart:
+    """Minimal asynchronous serial port (RS232 debug link of every board, §3.4).
+
+    Only what a scenario may use: bytes written by firmware go to the ``on_tx`` port; bytes fed
+    with :meth:`feed` wait in a receive FIFO of ``rx_fifo`` bytes (4 on the PIC/dsPIC UARTs;
+    overflow counted, byte lost). Baud-rate timing is not modelled.
+    """
+
+    def __init__(self, on_tx: Optional[Callable[[bytes], None]] = None, rx_fifo: int = 4) -> None:
+        self.on_tx = on_tx
+        self.rx_fifo = int(rx_fifo)
+        self._rx: Deque[int] = deque()
+        self.rx_overruns = 0
+        self.tx_log: List[bytes] = []
+
+    def write(self, data: bytes) -> None:
+        """Transmit bytes."""
+        data = bytes(data)
+        self.tx_log.append(data)
+        if self.on_tx is not None:
+            self.on_tx(data)
+
+    def feed(self, data: bytes) -> None:
+        """Bytes arriving on RX."""
+        for b in bytes(data):
+            if len(self._rx) >= self.rx_fifo:
+                self.rx_overruns += 1
+            else:
+                self._rx.append(b)
+
+    def read(self) -> bytes:
+        """Empty the receive FIFO."""
+        out = bytes(self._rx)
+        self._rx.clear()
+        return out
+
+    def reset(self) -> None:
+        """Power-on: FIFO empty, counters and log cleared."""
+        self._rx.clear()
+        self.rx_overruns = 0
+        self.tx_log = []
+
+
+class StepDir:
+    """Step/direction output to the bipolar stepper's dual H-bridge (half-step mode, §3.3).
+
+    Parameters
+    ----------
+    on_step : callable
+        Port ``on_step(direction)`` called with +1 or −1 for every half step issued.
+    on_power : callable, optional
+        Port ``on_power(state)`` with state ``"on"`` (windings driven), ``"hold"`` (motor power
+        off, windings shorted through the free-wheeling diodes: regenerative holding, §3.3/§5.2)
+        or ``"free"`` (control power off).
+    half_step : bool
+        Half-step mode (True, 0.9° per step on the KM062, §3.2).
+    """
+
+    POWER_STATES = ("on", "hold", "free")
+
+    def __init__(self, on_step: Callable[[int], None],
+                 on_power: Optional[Callable[[str], None]] = None, half_step: bool = True) -> None:
+        self.on_step = on_step
+        self.on_power = on_power
+        self.half_step = bool(half_step)
+        self.direction = 1
+        self.steps_issued = 0        # signed count of steps output since reset
+        self.power = "on"
+
+    def set_direction(self, direction: int) -> None:
+        """Set the DIR line (+1 / −1)."""
+        self.direction = 1 if direction >= 0 else -1
+
+    def step(self) -> None:
+        """One STEP pulse in the current direction (ignored unless power is on)."""
+        if self.power != "on":
+            return
+        self.steps_issued += self.direction
+        self.on_step(self.direction)
+
+    def set_power(self, state: str) -> None:
+        """Switch the bridge power state (``"on"``, ``"hold"``, ``"free"``)."""
+        if state not in self.POWER_STATES:
+            raise ValueError(f"power state must be one of {self.POWER_STATES}, got {state!r}")
+        if state != self.power:
+            self.power = state
+            if self.on_power is not None:
+                self.on_power(state)
+
+    def reset(self) -> None:
+        """Power-on: direction +, step count zero, bridge on."""
+        self.direction = 1
+        self.steps_issued = 0
+        self.set_power("on")
+
+
+# Background polling priority used by boards whose bus has no receive interrupt.
+POLL_PRIORITY = PRIO_BACKGROUND
+
+
+from boards.endat import EnDatMaster  # noqa: E402  (peripheral defined with its protocol)
+
+__all__.append("EnDatMaster")

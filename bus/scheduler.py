@@ -1,0 +1,312 @@
+"""The one simulated clock: a deterministic discrete-event scheduler in integer microseconds.
+
+Everything time-dependent in schmidt-fil (board timers, CAN frame ends, plant integration,
+host scenarios) is an event on one :class:`Scheduler`. Nothing reads the wall clock, sleeps or
+starts a thread.
+
+Ordering is total and deterministic: the heap holds ``(t_us, priority, seq, event)``; at equal
+time a lower ``priority`` number runs first, and ``seq`` (insertion order) breaks the remaining
+ties. Two runs of the same scenario therefore execute the same callbacks in the same order.
+
+Examples
+--------
+>>> s = Scheduler()
+>>> seen = []
+>>> ev = s.call_every(5_000, seen.append, owner="tick")
+>>> s.run_until(20_000)
+>>> seen
+[5000, 10000, 15000, 20000]
+"""
+
+from __future__ import annotations
+
+import heapq
+from operator import index as _index
+from typing import Callable
+
+from bus.errors import SimulationError
+
+__all__ = [
+    "Scheduler",
+    "Event",
+    "PRIO_PLANT",
+    "PRIO_ISR",
+    "PRIO_CAN",
+    "PRIO_BACKGROUND",
+    "PRIO_HOST",
+]
+
+#: Plant integration runs first at a given instant, so sensors read the state at ``now_us``.
+PRIO_PLANT = 0
+#: Board timer interrupts (the 5 ms control tick).
+PRIO_ISR = 10
+#: CAN frame completion and receive interrupts.
+PRIO_CAN = 20
+#: Board background loops (command parsing, housekeeping).
+PRIO_BACKGROUND = 30
+#: Host-side scenario steps and logging.
+PRIO_HOST = 40
+
+Callback = Callable[[int], object]
+
+
+class Event:
+    """A scheduled callback; returned by ``call_*`` and accepted by :meth:`Scheduler.cancel`.
+
+    Attributes
+    ----------
+    t_us : int
+        Time of the next run, µs.
+    priority : int
+        Lower runs first at equal ``t_us``.
+    callback : callable
+        Called as ``callback(now_us)``.
+    owner : str or None
+        Who scheduled it (for error messages), e.g. ``"ra-axis"``.
+    period_us : int or None
+        Repeat period for :meth:`Scheduler.call_every`, else ``None``.
+    cancelled : bool
+        True once cancelled (or once a one-shot event has run).
+    """
+
+    __slots__ = ("t_us", "priority", "callback", "owner", "period_us", "cancelled")
+
+    def __init__(self, t_us: int, priority: int, callback: Callback, owner: str | None,
+                 period_us: int | None) -> None:
+        self.t_us = t_us
+        self.priority = priority
+        self.callback = callback
+        self.owner = owner
+        self.period_us = period_us
+        self.cancelled = False
+
+    def describe_owner(self) -> str:
+        """Return the owner string, or the callback's qualified name when no owner was given."""
+        if self.owner is not None:
+            return self.owner
+        cb = self.callback
+        return getattr(cb, "__qualname__", None) or repr(cb)
+
+    def __repr__(self) -> str:
+        rep = f" every {self.period_us} µs" if self.period_us else ""
+        state = " cancelled" if self.cancelled else ""
+        return f"<Event {self.describe_owner()} at {self.t_us} µs prio {self.priority}{rep}{state}>"
+
+
+class Scheduler:
+    """Deterministic event scheduler; the single owner of simulated time.
+
+    Parameters
+    ----------
+    start_us : int, optional
+        Initial value of :attr:`now_us`, µs (default 0).
+
+    Attributes
+    ----------
+    now_us : int
+        Current simulated time, integer µs. Advanced only by :meth:`run_until` and :meth:`step`.
+    events_run : int
+        Number of callbacks executed so far (for benchmarks).
+    """
+
+    def __init__(self, start_us: int = 0) -> None:
+        self.now_us: int = _index(start_us)
+        self.events_run = 0
+        self._heap: list[tuple[int, int, int, Event]] = []
+        self._seq = 0
+        self._running = False
+
+    # -- scheduling -------------------------------------------------------------------------
+    def call_at(self, t_us: int, callback: Callback, priority: int = 0, *,
+                owner: str | None = None) -> Event:
+        """Run ``callback(now_us)`` once at absolute time ``t_us``.
+
+        Parameters
+        ----------
+        t_us : int
+            Absolute time, µs; must be ``>= now_us`` and an integer (floats are refused).
+        callback : callable
+            ``callback(now_us: int)``.
+        priority : int, optional
+            Lower runs first at equal time (use the ``PRIO_*`` constants).
+        owner : str, optional
+            Named in :class:`~bus.errors.SimulationError` if the callback raises.
+
+        Returns
+        -------
+        Event
+
+        Raises
+        ------
+        TypeError
+            If ``t_us`` is not an integer.
+        SimulationError
+            If ``t_us`` is in the past.
+        """
+        t_us = _index(t_us)
+        if t_us < self.now_us:
+            raise SimulationError(
+                f"cannot schedule {owner or getattr(callback, '__qualname__', callback)} at "
+                f"{t_us} µs: it is already {self.now_us} µs", owner, self.now_us)
+        ev = Event(t_us, priority, callback, owner, None)
+        self._push(ev)
+        return ev
+
+    def call_later(self, delay_us: int, callback: Callback, priority: int = 0, *,
+                   owner: str | None = None) -> Event:
+        """Run ``callback(now_us)`` once, ``delay_us`` (integer µs, ``>= 0``) from now."""
+        delay_us = _index(delay_us)
+        if delay_us < 0:
+            raise SimulationError(f"negative delay {delay_us} µs", owner, self.now_us)
+        return self.call_at(self.now_us + delay_us, callback, priority, owner=owner)
+
+    def call_every(self, period_us: int, callback: Callback, *, start_us: int | None = None,
+                   priority: int = 0, owner: str | None = None) -> Event:
+        """Run ``callback(now_us)`` at ``start_us + k * period_us`` for k = 0, 1, 2, ...
+
+        Parameters
+        ----------
+        period_us : int
+            Period, integer µs, ``> 0``. Times are exact multiples: no drift.
+        callback : callable
+            ``callback(now_us: int)``.
+        start_us : int, optional
+            Time of the first run, µs; default ``now_us + period_us`` (a hardware timer first
+            fires one period after it is started).
+        priority : int, optional
+            Lower runs first at equal time.
+        owner : str, optional
+            Named in errors.
+
+        Returns
+        -------
+        Event
+            The same object for every repetition; :meth:`cancel` stops the series, also from
+            inside the callback.
+
+        Notes
+        -----
+        The next repetition is queued *before* the callback runs, so events the callback
+        schedules for the same future instant (same priority) run after it.
+        """
+        period_us = _index(period_us)
+        if period_us <= 0:
+            raise SimulationError(f"period must be > 0 µs, got {period_us}", owner, self.now_us)
+        t_us = self.now_us + period_us if start_us is None else _index(start_us)
+        if t_us < self.now_us:
+            raise SimulationError(f"start {t_us} µs is before now ({self.now_us} µs)",
+                                  owner, self.now_us)
+        ev = Event(t_us, priority, callback, owner, period_us)
+        self._push(ev)
+        return ev
+
+    def cancel(self, event: Event) -> None:
+        """Cancel ``event`` (one-shot or periodic). Cancelling twice or after it ran is a no-op."""
+        event.cancelled = True
+
+    def _push(self, ev: Event) -> None:
+        self._seq += 1
+        heapq.heappush(self._heap, (ev.t_us, ev.priority, self._seq, ev))
+
+    # -- running ----------------------------------------------------------------------------
+    def next_event_us(self) -> int | None:
+        """Time of the next pending (non-cancelled) event, µs, or ``None`` if there is none."""
+        heap = self._heap
+        while heap and heap[0][3].cancelled:
+            heapq.heappop(heap)
+        return heap[0][0] if heap else None
+
+    def pending(self) -> int:
+        """Number of queued, non-cancelled events."""
+        return sum(1 for entry in self._heap if not entry[3].cancelled)
+
+    def run_until(self, t_us: int) -> None:
+        """Run every event with time ``<= t_us`` in order, then set ``now_us = t_us``.
+
+        Parameters
+        ----------
+        t_us : int
+            Absolute end time, µs, ``>= now_us``.
+
+        Raises
+        ------
+        SimulationError
+            If a callback raises (the original exception is ``__cause__``; ``now_us`` stays at
+            the failing event's time), if ``t_us`` is in the past, or if called re-entrantly
+            from inside a callback.
+        """
+        t_us = _index(t_us)
+        if t_us < self.now_us:
+            raise SimulationError(f"run_until({t_us}) is before now ({self.now_us} µs)",
+                                  None, self.now_us)
+        if self._running:
+            raise SimulationError("run_until called from inside a callback", None, self.now_us)
+        heap = self._heap
+        pop = heapq.heappop
+        push = heapq.heappush
+        self._running = True
+        n = 0
+        try:
+            while heap and heap[0][0] <= t_us:
+                t, prio, _, ev = pop(heap)
+                if ev.cancelled:
+                    continue
+                self.now_us = t
+                period = ev.period_us
+                if period is None:
+                    ev.cancelled = True  # a one-shot event is spent once it runs
+                else:
+                    ev.t_us = t + period
+                    self._seq += 1
+                    push(heap, (ev.t_us, prio, self._seq, ev))
+                n += 1
+                try:
+                    ev.callback(t)
+                except SimulationError:
+                    raise
+                except Exception as exc:
+                    raise self._wrap(ev, exc) from exc
+            self.now_us = t_us
+        finally:
+            self._running = False
+            self.events_run += n
+
+    def step(self) -> bool:
+        """Run the next pending event (advancing ``now_us`` to its time).
+
+        Returns
+        -------
+        bool
+            False if there was nothing to run.
+        """
+        t = self.next_event_us()
+        if t is None:
+            return False
+        # run exactly one event: pop it and run through the same path as run_until
+        heap = self._heap
+        _, prio, _, ev = heapq.heappop(heap)
+        if self._running:
+            raise SimulationError("step called from inside a callback", None, self.now_us)
+        self.now_us = t
+        if ev.period_us is None:
+            ev.cancelled = True
+        else:
+            ev.t_us = t + ev.period_us
+            self._push(ev)
+        self.events_run += 1
+        self._running = True
+        try:
+            ev.callback(t)
+        except SimulationError:
+            raise
+        except Exception as exc:
+            raise self._wrap(ev, exc) from exc
+        finally:
+            self._running = False
+        return True
+
+    def _wrap(self, ev: Event, exc: Exception) -> SimulationError:
+        owner = ev.describe_owner()
+        return SimulationError(
+            f"{owner} raised {type(exc).__name__}: {exc} at t = {self.now_us} µs",
+            owner, self.now_us)

@@ -1,0 +1,87 @@
+"""``schmidt-fil bench``: real-time factor of the whole network, and of the naive design.
+
+Prints the real-time factor (simulated seconds per wall second) of the full telescope network
+(two axis controllers, two EnDat readers, the focus controller and the host on one emulated CAN
+bus, plant included) in fast mode, and — in the same process, same scenario, same simulated
+span — that of the naive design where every board has its own python-can ``virtual`` Bus
+(python-can copies each frame once per attached Bus). The ratio is ``rtf / rtf_naive``.
+
+This is a benchmark, not a test: numbers depend on the machine and its load. Target (issue 2):
+``rtf`` ≥ 50 on one core of the 2-core reference machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import time
+from pathlib import Path
+
+DEFAULT_SCENARIO = Path(__file__).resolve().parent.parent / "scenarios" / "tracking-low-preload.yaml"
+
+
+def add_subparser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("bench", help="benchmark: real-time factor of the network vs the naive one-virtual-bus-per-board design")
+    p.add_argument("--scenario", type=Path, default=None, help="scenario to time (default: tracking-low-preload)")
+    p.add_argument("--seconds", type=float, default=20.0, help="simulated seconds per measurement (default 20)")
+    p.add_argument("--repeat", type=int, default=3, help="measurements per design; the best is reported (default 3)")
+    p.add_argument("--json", action="store_true", help="print JSON: rtf, rtf_naive, ratio, boards, ...")
+    p.set_defaults(func=run)
+
+
+def measure(scenario, seconds: float, interface: str) -> dict:
+    """Build the network with ``interface`` and time ``seconds`` of simulated tracking.
+
+    Returns a dict with ``rtf`` (simulated s per wall s), ``wall_s``, ``boards``, ``frames``.
+    """
+    from host.network import build_network
+
+    sc = scenario.model_copy(update={"bus": scenario.bus.model_copy(update={"interface": interface,
+                                                                         "channel": f"bench-{interface}"})})
+    tel = build_network(sc)
+    try:
+        client = tel.client
+        health = client.power_on()
+        if not health.ok:
+            raise RuntimeError(f"bench network failed its health check: {health.missing}")
+        seg = sc.segments[0]
+        client.command_axis(seg.axis if seg.axis != "both" else "ra", seg.mode, seg.direction, seg.rate_arcsec_s)
+        t0 = tel.scheduler.now_us
+        w0 = time.perf_counter()
+        tel.scheduler.run_until(t0 + int(seconds * 1e6))
+        wall = time.perf_counter() - w0
+        return {"rtf": seconds / wall, "wall_s": wall, "boards": len(tel.boards),
+                "frames": client.frames_received}
+    finally:
+        tel.close()
+
+
+def run(args: argparse.Namespace) -> int:
+    from host.scenario import load_scenario
+
+    scenario = load_scenario(args.scenario or DEFAULT_SCENARIO)
+    best = {}
+    for interface in ("sim", "virtual"):
+        runs = [measure(scenario, args.seconds, interface) for _ in range(max(1, args.repeat))]
+        best[interface] = max(runs, key=lambda r: r["rtf"])
+    out = {
+        "rtf": round(best["sim"]["rtf"], 2),
+        "rtf_naive": round(best["virtual"]["rtf"], 2),
+        "ratio": round(best["sim"]["rtf"] / best["virtual"]["rtf"], 2),
+        "boards": best["sim"]["boards"],
+        "simulated_s": args.seconds,
+        "repeat": args.repeat,
+        "scenario": scenario.name,
+        "frames_received_by_host": best["sim"]["frames"],
+        "max_rss_mib": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+        "target_rtf": 50,
+    }
+    if args.json:
+        print(json.dumps(out))
+    else:
+        print(f"network ({out['boards']} boards + host, in-process sim bus): {out['rtf']:8.1f}x real time")
+        print(f"naive (one python-can virtual Bus per board):            {out['rtf_naive']:8.1f}x real time")
+        print(f"ratio: {out['ratio']:.2f}   target rtf >= 50: {'met' if out['rtf'] >= 50 else 'NOT met'}   "
+              f"max RSS {out['max_rss_mib']} MiB")
+    return 0

@@ -1,0 +1,315 @@
+"""The host client: the operator PC on the CAN bus (the USB-to-CAN node of paper §3.4).
+
+It talks to the boards only through the documented 8-byte frames (``bus.protocol``) over any
+python-can ``BusABC``: power-on with a health check, motion commands, and the status it decodes
+from what the boards publish. It never touches a board or the plant directly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import can
+
+from bus import protocol as P
+from bus.errors import MalformedFrame
+from bus.scheduler import PRIO_HOST, Scheduler
+
+__all__ = ["HostClient", "Health", "AxisState", "NODE_NAMES", "AXIS_NODES"]
+
+#: Board name of each node id (docs/architecture.md).
+NODE_NAMES = {
+    P.NODE_RA_AXIS: "ra-axis",
+    P.NODE_DEC_AXIS: "dec-axis",
+    P.NODE_RA_READER: "ra-reader",
+    P.NODE_DEC_READER: "dec-reader",
+    P.NODE_FOCUS: "focus",
+}
+AXIS_NODES = {"ra": P.NODE_RA_AXIS, "dec": P.NODE_DEC_AXIS}
+READER_NODES = {"ra": P.NODE_RA_READER, "dec": P.NODE_DEC_READER}
+
+_MODE_CMD = {
+    "stop": P.AxisCommand.STOP,
+    "slew": P.AxisCommand.SLEW,
+    "set": P.AxisCommand.SET,
+    "guide": P.AxisCommand.GUIDE,
+    "fine": P.AxisCommand.FINE,
+    "track": P.AxisCommand.TRACK,
+    "velocity": P.AxisCommand.VELOCITY,
+    "open_loop": P.AxisCommand.OPEN_LOOP,
+}
+
+
+@dataclass
+class AxisState:
+    """Latest decoded status of one axis controller, as the host sees it."""
+
+    mode: int = 0
+    mode_name: str = "STOP"
+    flags: int = 0
+    u: float = 0.0                  # control effort U, duty −1..1
+    counts: int = 0                 # unwrapped QEI counts (from the 24-bit field)
+    rate_arcsec_s: float = 0.0      # from the last tick's QEI delta (coarse: 2.3″/s per count)
+    current_a_a: float = 0.0        # motor A current from the shunt ADC [A]
+    current_b_a: float = 0.0
+    t_us: int = -1
+    _raw24: int | None = None
+
+
+@dataclass
+class PositionState:
+    pos_counts: int = 0
+    flags: int = 0
+    crc_errors: int = 0
+    t_us: int = -1
+
+
+@dataclass
+class FocusState:
+    pos_halfsteps: int = 0
+    lvdt_adc: int = 0
+    flags: int = 0
+    t_us: int = -1
+
+
+@dataclass
+class Health:
+    """Result of the power-on health check."""
+
+    ok: bool
+    answered: dict[str, int]        # board -> simulated time of its answer [µs]
+    missing: list[str]
+
+
+@dataclass
+class HostClient:
+    """Operator client over a python-can bus in simulated time.
+
+    Parameters
+    ----------
+    bus : can.BusABC
+        Any python-can bus (``schmidt-sim``, ``virtual``, ``socketcan``).
+    scheduler : Scheduler
+        The simulated clock.
+    expected_nodes : tuple of int
+        Nodes that must answer the power-on health check.
+    preset_rates_arcsec_s : dict
+        Firmware preset rates by mode name, to report setpoints.
+    open_loop_duty : callable(rate_arcsec_s, axis) -> float
+        The operator's duty-speed map for open-loop runs.
+    adc_to_current_a : callable(counts) -> float
+        Shunt ADC counts to motor current [A].
+    """
+
+    bus: can.BusABC
+    scheduler: Scheduler
+    expected_nodes: tuple = tuple(NODE_NAMES)
+    preset_rates_arcsec_s: dict = field(default_factory=dict)
+    open_loop_duty: Callable[[float, str], float] | None = None
+    adc_to_current_a: Callable[[int], float] = lambda c: c * (5.0 / 1023) / 0.1
+    logs: object = None
+
+    POWER_ON_US = 100_000
+    QEI_WRAP = 1 << 24
+
+    def __post_init__(self) -> None:
+        self.axes = {"ra": AxisState(), "dec": AxisState()}
+        self.positions = {"ra": PositionState(), "dec": PositionState()}
+        self.focus = FocusState()
+        self.heartbeats: dict[int, tuple[int, int, int]] = {}   # node -> (t_us, state, malformed)
+        self.frames_received = 0
+        self.malformed_frames = 0
+        self._errors: list[str] = []
+        self._last_state: dict[int, int] = {}
+        self._last_mode: dict[str, int] = {}
+        if hasattr(self.bus, "set_rx_callback"):
+            self.bus.set_rx_callback(self.poll)
+            self._poll_event = None
+        else:  # a plain python-can bus: poll like a 1 ms USB-HID interrupt endpoint
+            self._poll_event = self.scheduler.call_every(1_000, lambda now: self.poll(), priority=PRIO_HOST,
+                                                         owner="host-poll")
+
+    # -- receive -------------------------------------------------------------------------------
+    def poll(self) -> None:
+        """Drain the bus and decode every frame (called from the rx interrupt or a 1 ms poll)."""
+        while True:
+            msg = self.bus.recv(0.0)
+            if msg is None:
+                return
+            self.frames_received += 1
+            self._handle(msg)
+
+    def _handle(self, msg: can.Message) -> None:
+        now = self.scheduler.now_us
+        try:
+            frame = P.decode(msg.arbitration_id, bytes(msg.data))
+        except MalformedFrame as exc:
+            self.malformed_frames += 1
+            self._error(now, f"0x{msg.arbitration_id:03X}", "malformed-frame", str(exc))
+            return
+        if frame is None:  # a frame the host does not consume (commands of another host)
+            return
+        kind = type(frame).__name__
+        handler = getattr(self, f"_on_{kind}", None)
+        if handler is not None:
+            handler(msg.arbitration_id, frame, now)
+
+    def _on_AxisStatus(self, cob_id: int, f, now: int) -> None:
+        node = cob_id - P.axis_status_cob_id(0)
+        axis = "ra" if node == P.NODE_RA_AXIS else "dec"
+        st = self.axes[axis]
+        raw = f.qei_counts
+        if st._raw24 is None:
+            st.counts = raw if raw < self.QEI_WRAP // 2 else raw - self.QEI_WRAP
+        else:
+            d = (raw - st._raw24) % self.QEI_WRAP
+            if d >= self.QEI_WRAP // 2:
+                d -= self.QEI_WRAP
+            st.counts += d
+        st._raw24 = raw
+        st.u = f.u_q15 / 32767.0
+        st.flags = f.flags
+        st.t_us = now
+        if st.mode != f.mode or axis not in self._last_mode:
+            name = P.AxisMode(f.mode).name
+            if self.logs:
+                self.logs.status(now, node, NODE_NAMES[node], "mode", name)
+            st.mode_name = name
+        st.mode = f.mode
+        self._last_mode[axis] = f.mode
+
+    def _on_AxisAux(self, cob_id: int, f, now: int) -> None:
+        node = cob_id - P.axis_aux_cob_id(0)
+        st = self.axes["ra" if node == P.NODE_RA_AXIS else "dec"]
+        st.current_a_a = self.adc_to_current_a(f.adc_a)
+        st.current_b_a = self.adc_to_current_a(f.adc_b)
+        st.rate_arcsec_s = f.qei_delta * ARCSEC_PER_COUNT / 0.005
+
+    def _on_Position(self, cob_id: int, f, now: int) -> None:
+        node = cob_id - P.position_cob_id(0)
+        ps = self.positions["ra" if node == P.NODE_RA_READER else "dec"]
+        if f.crc_errors != ps.crc_errors and ps.t_us >= 0:
+            self._error(now, NODE_NAMES[node], "endat-crc", f"crc_errors {ps.crc_errors} -> {f.crc_errors}")
+        ps.pos_counts, ps.flags, ps.crc_errors, ps.t_us = f.pos_counts, f.flags, f.crc_errors, now
+
+    def _on_FocusStatus(self, cob_id: int, f, now: int) -> None:
+        self.focus.pos_halfsteps, self.focus.lvdt_adc, self.focus.flags, self.focus.t_us = (
+            f.pos_halfsteps, f.lvdt_adc, f.flags, now)
+
+    def _on_Heartbeat(self, cob_id: int, f, now: int) -> None:
+        node = cob_id - P.heartbeat_cob_id(0)
+        self.heartbeats[node] = (now, f.state, f.malformed_frames)
+        if self._last_state.get(node) != f.state:
+            if self.logs:
+                self.logs.status(now, node, NODE_NAMES.get(node, str(node)), "state",
+                                 f"{P.BoardState(f.state).name} reset_cause={P.ResetCause(f.reset_cause).name} "
+                                 f"malformed={f.malformed_frames}")
+            self._last_state[node] = f.state
+
+    def _on_Fault(self, cob_id: int, f, now: int) -> None:
+        node = cob_id - P.fault_cob_id(0)
+        self._error(now, NODE_NAMES.get(node, str(node)), P.FaultCode(f.error_code).name.lower(),
+                    f"malformed={f.malformed_frames} crc_errors={f.crc_errors} detail={f.detail}")
+
+    def _on_Limit(self, cob_id: int, f, now: int) -> None:
+        node = cob_id - P.limit_cob_id(0)
+        if self.logs:
+            self.logs.status(now, node, NODE_NAMES.get(node, str(node)), "limit", f"flags=0x{f.flags:02X} pos={f.pos_counts}")
+
+    def _error(self, now: int, source: str, error: str, detail: str) -> None:
+        self._errors.append(f"{now / 1e6:.6f} s {source}: {error} {detail}")
+        if self.logs:
+            self.logs.error(now, source, error, detail)
+
+    def error_lines(self) -> list[str]:
+        """Errors seen by the host, oldest first (also in ``errors.log``)."""
+        return list(self._errors)
+
+    # -- send ----------------------------------------------------------------------------------
+    def _send(self, cob_id: int, data: bytes, target: str, what: str, detail: str = "") -> None:
+        self.bus.send(can.Message(arbitration_id=cob_id, data=data, is_extended_id=False, dlc=8))
+        if self.logs:
+            self.logs.command(self.scheduler.now_us, target, what, detail)
+
+    def power_on(self) -> Health:
+        """Ping every board and wait ``POWER_ON_US`` of simulated time for their heartbeats.
+
+        Returns
+        -------
+        Health
+            ``ok`` is false and ``missing`` names each board that did not answer in time.
+        """
+        t0 = self.scheduler.now_us
+        self._send(P.HOST_BROADCAST_COB_ID, P.encode_host_broadcast(P.HostCommand.PING, 0, 0), "all", "PING",
+                   "power-on health check")
+        self.scheduler.run_until(t0 + self.POWER_ON_US)
+        answered = {NODE_NAMES[n]: self.heartbeats[n][0] for n in self.expected_nodes
+                    if n in self.heartbeats and self.heartbeats[n][0] >= t0}
+        missing = [NODE_NAMES[n] for n in self.expected_nodes if NODE_NAMES[n] not in answered]
+        for name in missing:
+            self._error(self.scheduler.now_us, name, "no-answer", f"no heartbeat within {self.POWER_ON_US // 1000} ms of PING")
+        if self.logs:
+            self.logs.status(self.scheduler.now_us, P.NODE_HOST, "host", "health-check",
+                             "ok" if not missing else "missing " + ",".join(missing))
+        return Health(ok=not missing, answered=answered, missing=missing)
+
+    def command_axis(self, axis: str, mode: str, direction: int = 1, rate_arcsec_s: float | None = None) -> float:
+        """Send an ``AXIS_COMMAND``; return the signed setpoint rate [arcsec/s] it means.
+
+        Parameters
+        ----------
+        axis : {"ra", "dec"}
+        mode : str
+            One of ``host.scenario.MODES``.
+        direction : {1, -1}
+        rate_arcsec_s : float, optional
+            Required for ``velocity`` and ``open_loop``.
+
+        Raises
+        ------
+        ValueError
+            Unknown axis or mode, or a missing rate.
+        """
+        if axis not in AXIS_NODES:
+            raise ValueError(f"unknown axis {axis!r}; expected 'ra' or 'dec'")
+        if mode not in _MODE_CMD:
+            raise ValueError(f"unknown mode {mode!r}; expected one of {sorted(_MODE_CMD)}")
+        node = AXIS_NODES[axis]
+        cmd = _MODE_CMD[mode]
+        value = 0
+        if mode == "velocity":
+            if rate_arcsec_s is None:
+                raise ValueError("velocity mode needs rate_arcsec_s")
+            value = int(round(rate_arcsec_s * 1000))
+            sp = direction * rate_arcsec_s
+        elif mode == "open_loop":
+            if rate_arcsec_s is None or self.open_loop_duty is None:
+                raise ValueError("open_loop needs rate_arcsec_s and an open-loop duty map")
+            duty = self.open_loop_duty(rate_arcsec_s, axis)
+            value = int(round(max(0.0, min(1.0, duty)) * 32767))
+            sp = direction * rate_arcsec_s
+        elif mode == "stop":
+            sp = 0.0
+        else:
+            sp = direction * self.preset_rates_arcsec_s[mode]
+        self._send(P.axis_command_cob_id(node), P.encode_axis_command(cmd, direction, value),
+                   NODE_NAMES[node], mode.upper(), f"direction={direction:+d} value={value}")
+        return float(sp)
+
+    def command_focus_move_to(self, halfsteps: int) -> None:
+        """Send ``FOCUS_COMMAND MOVE_TO`` (absolute position in half-steps)."""
+        self._send(P.focus_command_cob_id(), P.encode_focus_command(P.FocusCommand.MOVE_TO, int(halfsteps)),
+                   "focus", "MOVE_TO", f"halfsteps={halfsteps}")
+
+    def send_raw(self, cob_id: int, data: bytes, target: str) -> None:
+        """Send an arbitrary frame (fault injection: malformed frames)."""
+        self._send(cob_id, data, target, "RAW", data.hex())
+
+    def close(self) -> None:
+        if self._poll_event is not None:
+            self.scheduler.cancel(self._poll_event)
+
+
+#: Incremental encoder resolution at the axis [arcsec/count].
+ARCSEC_PER_COUNT = 1_296_000.0 / (4_608_000 * 24.5)

@@ -1,0 +1,337 @@
+"""Tracking metrics, ``report.json``, ``report.md`` and the velocity / control-effort plots.
+
+How velocity and errors are measured (this text is also written into every report):
+
+* **Velocity** is what the operator sees: the incremental-encoder (QEI) count carried in every
+  ``AXIS_STATUS`` frame (every 10 ms), unwrapped by the host, differenced over non-overlapping
+  windows of ``velocity_window_ms`` (default 100 ms) and scaled by 0.01148 arcsec/count
+  (4.608e6 counts/rev through the 1:24.5 roller, paper §2.2/§3.2). One count per 100 ms is
+  0.115 arcsec/s, 0.77 % of the 15 arcsec/s tracking rate: that is the resolution floor of every
+  percentage in the report. A per-tick (5 ms) rate would have a 2.3 arcsec/s step (15 % of
+  sidereal), which is why the report does not use it.
+* **Settling**: the first ``settle_s`` seconds of each segment are excluded.
+* **peak_error_pct** = max |v − v_sp| / |v_sp| × 100 over the windows; **rms_error_pct** =
+  sqrt(mean((v − v_sp)²)) / |v_sp| × 100; **mean_error_pct** is the signed bias.
+* **limit_cycle** is true when the velocity error, sampled with the same window sliding by 10 ms,
+  shows a sustained oscillation: its autocorrelation has a repeat peak ≥ 0.3 at a lag between two
+  windows and a third of the measured span, and its RMS exceeds three times the measurement
+  quantization (one count per window). Both conditions can fail: a smooth run has no repeat peak;
+  quantization noise alone is below the amplitude threshold.
+* The same numbers computed from the plant's true axis angle (not visible on the real telescope)
+  are given as ``truth`` for comparison.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = [
+    "ARCSEC_PER_COUNT",
+    "MEASUREMENT_METHOD",
+    "window_rates",
+    "segment_metrics",
+    "write_reports",
+    "plot_axes",
+]
+
+#: Incremental encoder resolution at the axis [arcsec/count] (4.608e6 counts/rev, 1:24.5 roller).
+ARCSEC_PER_COUNT = 1_296_000.0 / (4_608_000 * 24.5)
+
+MEASUREMENT_METHOD = __doc__.split("How velocity and errors are measured", 1)[1].split("\n", 1)[1].strip()
+
+
+def window_rates(t_s: np.ndarray, pos: np.ndarray, window_s: float, step_s: float | None = None):
+    """Average rate of ``pos`` over windows.
+
+    Parameters
+    ----------
+    t_s : ndarray, shape (n,)
+        Sample times [s], increasing, uniformly spaced.
+    pos : ndarray, shape (n,)
+        Position samples (any unit).
+    window_s : float
+        Window length [s].
+    step_s : float, optional
+        Window step [s]; default ``window_s`` (non-overlapping).
+
+    Returns
+    -------
+    t_mid : ndarray, shape (m,)
+        Window mid times [s].
+    rate : ndarray, shape (m,)
+        (pos[end] − pos[start]) / (t[end] − t[start]), in pos units per second.
+    """
+    t_s = np.asarray(t_s, float)
+    pos = np.asarray(pos, float)
+    if len(t_s) < 2:
+        return np.empty(0), np.empty(0)
+    dt = float(np.median(np.diff(t_s)))
+    w = max(1, int(round(window_s / dt)))
+    s = max(1, int(round((step_s or window_s) / dt)))
+    starts = np.arange(0, len(t_s) - w, s)
+    if len(starts) == 0:
+        return np.empty(0), np.empty(0)
+    ends = starts + w
+    rate = (pos[ends] - pos[starts]) / (t_s[ends] - t_s[starts])
+    return 0.5 * (t_s[starts] + t_s[ends]), rate
+
+
+def _limit_cycle(err: np.ndarray, window_n: int, threshold: float) -> tuple[bool, float | None, float]:
+    """Return (limit_cycle, period_samples, acf_peak) for an error series sampled every 10 ms."""
+    e = err - err.mean()
+    rms = float(np.sqrt(np.mean(e * e))) if len(e) else 0.0
+    n = len(e)
+    if n < 6 * window_n or rms == 0.0:
+        return False, None, 0.0
+    f = np.fft.rfft(e, 2 * n)
+    acf = np.fft.irfft(f * np.conj(f))[:n]
+    acf = acf / acf[0]
+    lo, hi = 2 * window_n, n // 3
+    if hi <= lo + 2:
+        return False, None, 0.0
+    seg = acf[lo:hi]
+    k = int(np.argmax(seg))
+    peak = float(seg[k])
+    # a repeat peak must be a local maximum, not the edge of the decaying zero-lag lobe
+    is_local_max = 0 < k < len(seg) - 1 and seg[k] >= seg[k - 1] and seg[k] >= seg[k + 1]
+    # the decaying main lobe must have crossed below the peak before it (a true repeat)
+    dipped = float(acf[window_n:lo + k].min()) < peak - 0.2 if lo + k > window_n else False
+    sustained = is_local_max and dipped and peak >= 0.3
+    return bool(sustained and rms > threshold), float(lo + k) if sustained else None, peak
+
+
+@dataclass
+class AxisTrace:
+    """Host-side time series of one axis, sampled from the 10 ms status frames.
+
+    Attributes (all ndarrays of shape (n,)): ``t_s`` [s], ``counts`` (unwrapped QEI counts),
+    ``u`` (control effort, duty −1..1), ``mode`` (int), ``setpoint_arcsec_s``,
+    ``current_a_a`` / ``current_b_a`` [A] (from the shunt ADC), ``truth_angle_rad`` (plant).
+    """
+
+    t_s: np.ndarray
+    counts: np.ndarray
+    u: np.ndarray
+    mode: np.ndarray
+    setpoint_arcsec_s: np.ndarray
+    current_a_a: np.ndarray
+    current_b_a: np.ndarray
+    truth_angle_rad: np.ndarray
+
+
+def segment_metrics(
+    trace: AxisTrace,
+    t0_s: float,
+    t1_s: float,
+    setpoint_arcsec_s: float,
+    window_ms: int,
+    rated_current_a: float = 6.0,
+) -> dict:
+    """Error statistics of one axis over one segment (see the module docstring).
+
+    Parameters
+    ----------
+    trace : AxisTrace
+    t0_s, t1_s : float
+        Measured span [s] (segment start + settle, segment end).
+    setpoint_arcsec_s : float
+        Signed commanded rate [arcsec/s]; must be non-zero.
+    window_ms : int
+        Velocity window [ms].
+    rated_current_a : float
+        Motor current rating for the over-current time [A] (paper §3.2: 6 A).
+
+    Returns
+    -------
+    dict
+        ``peak_error_pct``, ``rms_error_pct``, ``mean_error_pct``, ``limit_cycle``,
+        ``limit_cycle_period_s``, ``mean_rate_arcsec_s``, ``stuck_fraction``, ``peak_current_a``,
+        ``time_over_rating_s``, ``windows``, ``truth`` (same errors from the plant angle).
+
+    Raises
+    ------
+    ValueError
+        If the span holds fewer than two windows or the setpoint is zero.
+    """
+    if setpoint_arcsec_s == 0:
+        raise ValueError("segment_metrics needs a non-zero setpoint")
+    sel = (trace.t_s >= t0_s - 1e-9) & (trace.t_s <= t1_s + 1e-9)
+    t = trace.t_s[sel]
+    w_s = window_ms / 1000.0
+    if len(t) < 3 or (t[-1] - t[0]) < 2 * w_s:
+        raise ValueError(f"measured span {t0_s:.3f}-{t1_s:.3f} s holds fewer than two {window_ms} ms windows")
+    sp = float(setpoint_arcsec_s)
+    pos_arcsec = trace.counts[sel] * ARCSEC_PER_COUNT
+    _, v = window_rates(t, pos_arcsec, w_s)
+    err = (v - sp) / abs(sp) * 100.0
+    # sliding 10 ms-step version for the oscillation test
+    _, v_slide = window_rates(t, pos_arcsec, w_s, 0.010)
+    quant_pct = ARCSEC_PER_COUNT / w_s / abs(sp) * 100.0
+    dt = float(np.median(np.diff(t)))
+    lc, period_n, acf_peak = _limit_cycle((v_slide - sp) / abs(sp) * 100.0, max(1, round(w_s / 0.010)), 3 * quant_pct)
+    dcounts = np.diff(trace.counts[sel])
+    truth_pos = np.degrees(trace.truth_angle_rad[sel]) * 3600.0
+    _, vt = window_rates(t, truth_pos, w_s)
+    terr = (vt - sp) / abs(sp) * 100.0
+    i_a, i_b = trace.current_a_a[sel], trace.current_b_a[sel]
+    i_max = np.maximum(i_a, i_b)
+    return {
+        "peak_error_pct": round(float(np.max(np.abs(err))), 3),
+        "rms_error_pct": round(float(np.sqrt(np.mean(err**2))), 3),
+        "mean_error_pct": round(float(np.mean(err)), 3),
+        "limit_cycle": lc,
+        "limit_cycle_period_s": round(period_n * 0.010, 3) if (lc and period_n) else None,
+        "acf_repeat_peak": round(acf_peak, 3),
+        "mean_rate_arcsec_s": round(float(np.mean(v)), 4),
+        "resolution_pct": round(quant_pct, 3),
+        "stuck_fraction": round(float(np.mean(dcounts == 0)) if len(dcounts) else 0.0, 4),
+        "peak_current_a": round(float(np.max(i_max)), 3),
+        "time_over_rating_s": round(float(np.sum(i_max > rated_current_a) * dt), 3),
+        "windows": int(len(v)),
+        "truth": {
+            "peak_error_pct": round(float(np.max(np.abs(terr))), 3),
+            "rms_error_pct": round(float(np.sqrt(np.mean(terr**2))), 3),
+        },
+    }
+
+
+def write_reports(out_dir: Path, report: dict) -> tuple[Path, Path]:
+    """Write ``report.json`` and ``report.md`` into ``out_dir``.
+
+    Parameters
+    ----------
+    report : dict
+        Must hold ``scenario``, ``segments`` (list of dicts with ``name``, ``mode``,
+        ``setpoint_arcsec_s``, ``peak_error_pct``, ``rms_error_pct``, ``limit_cycle``), ``method``.
+    """
+    jp = out_dir / "report.json"
+    jp.write_text(json.dumps(report, indent=2, default=_json_default) + "\n", encoding="utf-8")
+    mp = out_dir / "report.md"
+    mp.write_text(_markdown(report), encoding="utf-8")
+    return jp, mp
+
+
+def _json_default(o):
+    if isinstance(o, (np.integer,)):
+        return int(o)
+    if isinstance(o, (np.floating,)):
+        return float(o)
+    if isinstance(o, np.bool_):
+        return bool(o)
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
+def _markdown(r: dict) -> str:
+    lines = [f"# schmidt-fil report: {r['scenario']}", ""]
+    if r.get("description"):
+        lines += [r["description"], ""]
+    lines += [
+        f"Simulated {r['simulated_s']:.1f} s in {r['wall_s']:.1f} s wall "
+        f"({r['simulated_s'] / max(r['wall_s'], 1e-9):.1f}× real time); seed {r['seed']}; bus `{r['bus']['interface']}`.",
+        "",
+        "## Segments",
+        "",
+        "| segment | axis | mode | setpoint (″/s) | mean rate (″/s) | peak error % | rms error % | limit cycle | peak current (A) | s over 6 A | truth peak % |",
+        "|---|---|---|---:|---:|---:|---:|---|---:|---:|---:|",
+    ]
+    for s in r["segments"]:
+        if s.get("peak_error_pct") is None:
+            lines.append(f"| {s['name']} | {s['axis']} | {s['mode']} | {s['setpoint_arcsec_s']} | – | – | – | – | – | – | – |")
+            continue
+        lc = f"yes ({s['limit_cycle_period_s']} s)" if s["limit_cycle"] else "no"
+        lines.append(
+            f"| {s['name']} | {s['axis']} | {s['mode']} | {s['setpoint_arcsec_s']:g} | {s['mean_rate_arcsec_s']:g} | "
+            f"{s['peak_error_pct']:.2f} | {s['rms_error_pct']:.2f} | {lc} | {s['peak_current_a']:.2f} | "
+            f"{s['time_over_rating_s']:.2f} | {s['truth']['peak_error_pct']:.2f} |"
+        )
+    lines += ["", "## How velocity and errors are measured", "", r["method"], ""]
+    if r.get("controller"):
+        lines += ["## Controller", ""]
+        for axis, c in r["controller"].items():
+            lines.append(f"- {axis}: " + ", ".join(f"{k} = {v:.6g}" if isinstance(v, float) else f"{k} = {v}" for k, v in c.items()))
+        lines.append("")
+    if r.get("bus_stats"):
+        b = r["bus_stats"]
+        lines += ["## Bus", "", f"- frames: {b.get('frames')}, load {b.get('load_pct', 0):.2f} % (peak {b.get('peak_load_pct', 0):.2f} % over 100 ms)", ""]
+    if r.get("boards"):
+        lines += ["## Boards", "", "| board | malformed frames | CRC errors | state |", "|---|---:|---:|---|"]
+        for name, b in r["boards"].items():
+            lines.append(f"| {name} | {b.get('malformed_frames', 0)} | {b.get('crc_errors', '–')} | {b.get('state', '')} |")
+        lines.append("")
+    if r.get("errors"):
+        lines += ["## Errors", ""] + [f"- {e}" for e in r["errors"]] + [""]
+    return "\n".join(lines)
+
+
+def plot_axes(out_dir: Path, traces: dict[str, AxisTrace], segments: list[dict], window_ms: int) -> list[Path]:
+    """PNG plots of velocity and control effort against time per axis (like paper Figs. 12–13).
+
+    Velocity is the windowed QEI rate (sliding by 10 ms); the setpoint is drawn as a line and the
+    control effort U (duty, right axis) dashed, as in the paper's figures.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    paths = []
+    for axis, tr in traces.items():
+        if len(tr.t_s) < 3 or not np.any(tr.setpoint_arcsec_s != 0) and not np.any(tr.u != 0):
+            continue
+        fig, ax = plt.subplots(figsize=(11, 4.8))
+        tm, v = window_rates(tr.t_s, tr.counts * ARCSEC_PER_COUNT, window_ms / 1000.0, 0.010)
+        ax.plot(tm, v, lw=0.8, color="C0", label=f"velocity (QEI, {window_ms} ms window)")
+        ax.plot(tr.t_s, tr.setpoint_arcsec_s, lw=1.0, color="k", label="setpoint")
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("axis rate (arcsec/s)")
+        ax2 = ax.twinx()
+        ax2.plot(tr.t_s, tr.u * 100.0, "--", lw=0.8, color="C3", label="control effort U")
+        ax2.set_ylabel("control effort U (% duty)")
+        for s in segments:
+            if s["axis"] in (axis, "both"):
+                ax.axvline(s["t0_s"], color="0.7", lw=0.6)
+        h1, l1 = ax.get_legend_handles_labels()
+        h2, l2 = ax2.get_legend_handles_labels()
+        ax.legend(h1 + h2, l1 + l2, loc="upper right", fontsize=8)
+        ax.set_title(f"{axis.upper()} axis: velocity and control effort")
+        fig.tight_layout()
+        p = out_dir / f"{axis}_velocity_effort.png"
+        fig.savefig(p, dpi=110)
+        plt.close(fig)
+        paths.append(p)
+        # one zoomed plot per moving segment, where the interesting detail is
+        for s in segments:
+            if s["axis"] not in (axis, "both") or not s.get("setpoint_arcsec_s"):
+                continue
+            sel = (tr.t_s >= s["t0_s"]) & (tr.t_s <= s["t1_s"])
+            if sel.sum() < 3:
+                continue
+            fig, ax = plt.subplots(figsize=(11, 4.2))
+            tm, v = window_rates(tr.t_s[sel], tr.counts[sel] * ARCSEC_PER_COUNT, window_ms / 1000.0, 0.010)
+            ax.plot(tm, v, lw=0.8, color="C0", label="velocity (QEI)")
+            ax.axhline(s["setpoint_arcsec_s"], color="k", lw=1.0, label="setpoint")
+            ax.axvline(s["t0_s"] + s["settle_s"], color="0.6", lw=0.8, ls=":", label="end of settling")
+            ax.set_xlabel("time (s)")
+            ax.set_ylabel("axis rate (arcsec/s)")
+            ax2 = ax2 = ax.twinx()
+            ax2.plot(tr.t_s[sel], tr.u[sel] * 100.0, "--", lw=0.8, color="C3", label="control effort U")
+            ax2.set_ylabel("control effort U (% duty)")
+            ax.set_title(f"{axis.upper()} {s['name']} ({s['mode']}, {s['setpoint_arcsec_s']:g} arcsec/s)")
+            h1, l1 = ax.get_legend_handles_labels()
+            h2, l2 = ax2.get_legend_handles_labels()
+            ax.legend(h1 + h2, l1 + l2, loc="upper right", fontsize=8)
+            fig.tight_layout()
+            p = out_dir / f"{axis}_{_slug(s['name'])}.png"
+            fig.savefig(p, dpi=110)
+            plt.close(fig)
+            paths.append(p)
+    return paths
+
+
+def _slug(s: str) -> str:
+    return "".join(c if c.isalnum() or c in "-_" else "-" for c in s)

@@ -1,0 +1,295 @@
+"""Scenario files: YAML, validated on load, errors naming file, line and key.
+
+A scenario says which telescope to build (bus, plant parameters, controller overrides, log rate)
+and what to do with it (a list of segments run one after another). It is validated completely
+before anything runs: an unknown key or a bad value raises :class:`ScenarioError` with the file,
+the line and the dotted key, so nothing runs half-way.
+
+Example::
+
+    name: tracking-low-preload
+    seed: 1
+    plant:
+      preload: low
+    segments:
+      - name: track
+        axis: ra
+        mode: track
+        duration_s: 80
+        settle_s: 20
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from bus.errors import ConfigurationError
+
+__all__ = [
+    "ScenarioError",
+    "Scenario",
+    "Segment",
+    "load_scenario",
+    "parse_scenario",
+    "MODES",
+]
+
+#: Axis motion modes a segment may command (paper §3.3: slew, set, guide, fine, track; plus an
+#: arbitrary velocity, the open-loop runs of §4 and stop).
+MODES = ("stop", "slew", "set", "guide", "fine", "track", "velocity", "open_loop")
+
+
+class ScenarioError(ConfigurationError):
+    """A scenario file is invalid.
+
+    Parameters
+    ----------
+    path : str
+        The scenario file.
+    line : int or None
+        1-based line of the offending key or value, when known.
+    key : str
+        Dotted path of the offending key (``segments[2].mode``).
+    problem : str
+        What was expected.
+    """
+
+    def __init__(self, path: str, line: int | None, key: str, problem: str):
+        self.path, self.line, self.key, self.problem = path, line, key, problem
+        where = f"{path}:{line}" if line else path
+        super().__init__(f"{where}: {key}: {problem}" if key else f"{where}: {problem}")
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class BusConfig(_Strict):
+    """Which CAN bus the network uses.
+
+    ``sim`` is the in-process emulated bus in simulated time (CAN 2.0A bit timing, arbitration,
+    bus load). ``virtual`` is python-can's virtual bus, one Bus object per board (no bit timing;
+    the naive design, kept for comparison and to prove the boards run on a plain python-can bus).
+    ``socketcan`` uses a real ``vcan0``/``can0`` in real time (needs ``AF_CAN``: see docs).
+    """
+
+    interface: Literal["sim", "virtual", "socketcan"] = "sim"
+    channel: str = "telescope"
+    bitrate: int = Field(1_000_000, gt=0, le=1_000_000)
+
+
+class PlantConfig(_Strict):
+    """Plant parameters: the packaged parameter file, or another (e.g. calibrated) one, plus
+    dotted overrides (``axes.ra.friction.sigma0_nm_rad: 2.0e8``)."""
+
+    parameter_file: str | None = None
+    preload: Literal["low", "high"] | None = None
+    perfect: bool | None = None
+    overrides: dict[str, float | int | str | bool] = Field(default_factory=dict)
+
+
+class AxisControllerConfig(_Strict):
+    """Per-axis controller overrides; unset values come from the tuning rule and parameter file."""
+
+    kp: float | None = Field(None, ge=0, description="duty per (arcsec/s)")
+    ki: float | None = Field(None, ge=0, description="duty per (arcsec/s) per tick")
+    counter_fraction: float | None = Field(None, ge=0.0, le=0.5)
+    u_max: float | None = Field(None, gt=0.0, le=1.0)
+
+
+class ControllerConfig(_Strict):
+    ra: AxisControllerConfig = Field(default_factory=AxisControllerConfig)
+    dec: AxisControllerConfig = Field(default_factory=AxisControllerConfig)
+
+
+class LogConfig(_Strict):
+    """The four ASCII logs of paper §5.2; ``rate_hz`` is the sensor-data log rate."""
+
+    rate_hz: float = Field(100.0, gt=0, le=200.0)
+
+
+class ReportConfig(_Strict):
+    """How velocity errors are measured for the report (see host/report.py)."""
+
+    velocity_window_ms: int = Field(100, ge=10, le=10_000)
+
+
+class Segment(_Strict):
+    """One step of a scenario: command one axis (or both) and hold for ``duration_s``.
+
+    ``settle_s`` is excluded from the error statistics. ``rate_arcsec_s`` is required for
+    ``velocity`` and ``open_loop`` and forbidden for the presets (their rates are firmware
+    constants, see ``boards.axis_controller``).
+    """
+
+    name: str
+    axis: Literal["ra", "dec", "both"] = "ra"
+    mode: Literal["stop", "slew", "set", "guide", "fine", "track", "velocity", "open_loop"]
+    direction: Literal[1, -1] = 1
+    rate_arcsec_s: float | None = Field(None, gt=0)
+    duration_s: float = Field(gt=0, le=3600)
+    settle_s: float = Field(0.0, ge=0)
+    focus_halfsteps: int | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> "Segment":
+        if self.mode in ("velocity", "open_loop") and self.rate_arcsec_s is None:
+            raise ValueError(f"mode '{self.mode}' needs rate_arcsec_s (> 0)")
+        if self.mode not in ("velocity", "open_loop") and self.rate_arcsec_s is not None:
+            raise ValueError(
+                f"rate_arcsec_s is only for modes velocity/open_loop; '{self.mode}' uses its preset rate"
+            )
+        if self.settle_s >= self.duration_s and self.mode != "stop":
+            raise ValueError("settle_s must be shorter than duration_s")
+        return self
+
+
+class Fault(_Strict):
+    """A fault injected at a simulated time (fault-handling tests)."""
+
+    at_s: float = Field(ge=0)
+    kind: Literal["endat_bit_flip", "malformed_frame", "board_reset", "remove_board"]
+    board: Literal["ra-axis", "dec-axis", "ra-reader", "dec-reader", "focus"]
+    bit: int | None = Field(None, ge=0, le=63)
+
+
+class Scenario(_Strict):
+    """A validated scenario. Build with :func:`load_scenario`."""
+
+    name: str
+    description: str = ""
+    seed: int = 0
+    bus: BusConfig = Field(default_factory=BusConfig)
+    plant: PlantConfig = Field(default_factory=PlantConfig)
+    controller: ControllerConfig = Field(default_factory=ControllerConfig)
+    log: LogConfig = Field(default_factory=LogConfig)
+    report: ReportConfig = Field(default_factory=ReportConfig)
+    faults: list[Fault] = Field(default_factory=list)
+    segments: list[Segment] = Field(min_length=1)
+    source_path: str = Field("<string>", exclude=True)
+
+    @field_validator("segments")
+    @classmethod
+    def _unique_names(cls, segs: list[Segment]) -> list[Segment]:
+        seen: set[str] = set()
+        for s in segs:
+            if s.name in seen:
+                raise ValueError(f"duplicate segment name '{s.name}'")
+            seen.add(s.name)
+        return segs
+
+    @property
+    def duration_s(self) -> float:
+        """Total simulated duration of all segments [s]."""
+        return sum(s.duration_s for s in self.segments)
+
+
+def _line_index(node: yaml.Node, prefix: tuple = (), out: dict | None = None) -> dict:
+    """Map every key path (tuple of str/int) to the 1-based line of its key or item."""
+    out = {} if out is None else out
+    if isinstance(node, yaml.MappingNode):
+        for k, v in node.value:
+            path = prefix + (k.value,)
+            out[path] = k.start_mark.line + 1
+            _line_index(v, path, out)
+    elif isinstance(node, yaml.SequenceNode):
+        for i, v in enumerate(node.value):
+            path = prefix + (i,)
+            out[path] = v.start_mark.line + 1
+            _line_index(v, path, out)
+    return out
+
+
+def _dotted(loc: tuple) -> str:
+    s = ""
+    for part in loc:
+        if isinstance(part, int):
+            s += f"[{part}]"
+        else:
+            s += ("." if s else "") + str(part)
+    return s
+
+
+def parse_scenario(text: str, path: str = "<string>") -> Scenario:
+    """Parse and validate scenario YAML text.
+
+    Parameters
+    ----------
+    text : str
+        YAML document.
+    path : str
+        Name used in error messages and to resolve relative ``plant.parameter_file``.
+
+    Returns
+    -------
+    Scenario
+
+    Raises
+    ------
+    ScenarioError
+        YAML syntax error, unknown key, wrong type or out-of-range value; the message names the
+        file, the line and the dotted key.
+    """
+    try:
+        node = yaml.compose(text, Loader=yaml.SafeLoader)
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        raise ScenarioError(path, mark.line + 1 if mark else None, "", f"YAML syntax: {exc}") from None
+    if not isinstance(data, dict):
+        raise ScenarioError(path, 1, "", "expected a mapping at the top level (name, segments, ...)")
+    lines = _line_index(node) if node is not None else {}
+    try:
+        return Scenario.model_validate({**data, "source_path": path})
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        loc = tuple(err["loc"])
+        line = None
+        for n in range(len(loc), 0, -1):
+            line = lines.get(tuple(loc[:n]))
+            if line:
+                break
+        problem = err["msg"]
+        if err["type"] == "extra_forbidden":
+            problem = f"unknown key; {_valid_keys_hint(loc)}"
+        elif "input" in err and err["type"] not in ("missing",):
+            problem = f"{problem} (got {err['input']!r})"
+        raise ScenarioError(path, line, _dotted(loc), problem) from None
+
+
+def _valid_keys_hint(loc: tuple) -> str:
+    model: Any = Scenario
+    for part in loc[:-1]:
+        if isinstance(part, int):
+            continue
+        field = model.model_fields.get(part)
+        if field is None:
+            return "see docs/scenarios.md"
+        ann = field.annotation
+        args = getattr(ann, "__args__", ())
+        cand = [a for a in (ann, *args) if isinstance(a, type) and issubclass(a, BaseModel)]
+        if not cand:
+            return "see docs/scenarios.md"
+        model = cand[0]
+    keys = sorted(k for k in model.model_fields if k != "source_path")
+    return "valid keys: " + ", ".join(keys)
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Load and validate a scenario file.
+
+    Raises
+    ------
+    ScenarioError
+        File missing or invalid (see :func:`parse_scenario`).
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ScenarioError(str(p), None, "", f"cannot read scenario: {exc.strerror}") from None
+    return parse_scenario(text, str(p))

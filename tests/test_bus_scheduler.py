@@ -1,0 +1,163 @@
+"""Specification of bus.scheduler: one deterministic clock in integer microseconds."""
+
+import pytest
+
+from bus.errors import SchmidtFilError, SimulationError
+from bus.scheduler import (PRIO_BACKGROUND, PRIO_CAN, PRIO_HOST, PRIO_ISR, PRIO_PLANT,
+                           Scheduler)
+
+
+def test_priority_constants_match_contract():
+    """The PRIO_* constants have the values fixed in docs/architecture.md."""
+    assert (PRIO_PLANT, PRIO_ISR, PRIO_CAN, PRIO_BACKGROUND, PRIO_HOST) == (0, 10, 20, 30, 40)
+
+
+def test_call_at_runs_at_exact_time_and_passes_now():
+    """call_at runs the callback at t_us and passes now_us to it."""
+    s = Scheduler()
+    seen = []
+    s.call_at(1234, lambda now: seen.append((now, s.now_us)))
+    s.run_until(1233)
+    assert seen == []
+    s.run_until(1234)
+    assert seen == [(1234, 1234)]
+
+
+def test_run_until_sets_now_to_end_time():
+    """After run_until(t) the clock reads exactly t, even with no events."""
+    s = Scheduler()
+    s.run_until(10_000)
+    assert s.now_us == 10_000
+
+
+def test_call_later_is_relative_to_now():
+    """call_later(d) runs at now_us + d."""
+    s = Scheduler(start_us=500)
+    seen = []
+    s.call_later(100, seen.append)
+    s.run_until(10_000)
+    assert seen == [600]
+
+
+def test_call_every_has_no_drift_and_defaults_to_one_period_from_now():
+    """call_every fires at start + k*period exactly; default start is now + period."""
+    s = Scheduler()
+    seen = []
+    s.call_every(5_000, seen.append)
+    s.run_until(1_000_000)
+    assert seen == list(range(5_000, 1_000_001, 5_000))
+
+
+def test_call_every_with_start_us():
+    """call_every(start_us=0) fires at time 0 first."""
+    s = Scheduler()
+    seen = []
+    s.call_every(250_000, seen.append, start_us=0)
+    s.run_until(500_000)
+    assert seen == [0, 250_000, 500_000]
+
+
+def test_equal_time_orders_by_priority_then_insertion():
+    """At equal time, lower priority numbers run first; ties keep insertion order."""
+    s = Scheduler()
+    order = []
+    s.call_at(100, lambda now: order.append("host"), PRIO_HOST)
+    s.call_at(100, lambda now: order.append("can1"), PRIO_CAN)
+    s.call_at(100, lambda now: order.append("plant"), PRIO_PLANT)
+    s.call_at(100, lambda now: order.append("can2"), PRIO_CAN)
+    s.call_at(100, lambda now: order.append("isr"), PRIO_ISR)
+    s.run_until(100)
+    assert order == ["plant", "isr", "can1", "can2", "host"]
+
+
+def test_cancel_one_shot_and_periodic():
+    """Cancelled events never run; a periodic event can cancel itself from its callback."""
+    s = Scheduler()
+    seen = []
+    ev = s.call_at(10, seen.append)
+    s.cancel(ev)
+    ticks = []
+
+    def tick(now):
+        ticks.append(now)
+        if len(ticks) == 3:
+            s.cancel(every)
+
+    every = s.call_every(10, tick)
+    s.run_until(1000)
+    assert seen == [] and ticks == [10, 20, 30]
+    s.cancel(ev)  # cancelling twice is harmless
+
+
+def test_callbacks_may_schedule_at_current_time():
+    """An event scheduled for now from inside a callback runs in the same run_until."""
+    s = Scheduler()
+    seen = []
+    s.call_at(50, lambda now: s.call_at(now, lambda n: seen.append(("inner", n))))
+    s.run_until(50)
+    assert seen == [("inner", 50)]
+
+
+def test_step_runs_one_event():
+    """step() runs exactly one event and returns False when nothing is left."""
+    s = Scheduler()
+    seen = []
+    s.call_at(7, seen.append)
+    s.call_at(3, seen.append)
+    assert s.step() and seen == [3] and s.now_us == 3
+    assert s.step() and seen == [3, 7]
+    assert s.step() is False
+
+
+def test_exception_is_wrapped_with_owner_time_and_cause():
+    """A callback's exception stops the run as SimulationError naming owner and now_us."""
+    s = Scheduler()
+
+    def boom(now):
+        raise ZeroDivisionError("division by zero in PI update")
+
+    s.call_at(5_000, boom, owner="ra-axis")
+    with pytest.raises(SimulationError) as info:
+        s.run_until(10_000)
+    err = info.value
+    assert err.owner == "ra-axis" and err.now_us == 5_000
+    assert "ra-axis" in str(err) and "5000" in str(err)
+    assert isinstance(err.__cause__, ZeroDivisionError)
+    assert isinstance(err, SchmidtFilError)
+    assert s.now_us == 5_000
+
+
+def test_owner_defaults_to_callback_name():
+    """Without owner=, the error names the callback's qualified name."""
+    s = Scheduler()
+
+    def isr_tick(now):
+        raise RuntimeError("x")
+
+    s.call_later(1, isr_tick)
+    with pytest.raises(SimulationError, match="isr_tick"):
+        s.run_until(2)
+
+
+def test_scheduling_in_the_past_or_with_float_time_is_refused():
+    """Times are integer µs and never in the past."""
+    s = Scheduler(start_us=100)
+    with pytest.raises(SimulationError):
+        s.call_at(99, print)
+    with pytest.raises(TypeError):
+        s.call_at(100.5, print)
+    with pytest.raises(SimulationError):
+        s.run_until(50)
+
+
+def test_determinism():
+    """Two identical schedules produce identical traces."""
+    def trace():
+        s = Scheduler()
+        out = []
+        for i in range(5):
+            s.call_every(1000 + 7 * i, lambda now, i=i: out.append((now, i)), priority=i % 2)
+        s.run_until(50_000)
+        return out
+
+    assert trace() == trace()
