@@ -10,8 +10,6 @@ Ki in duty per (″/s) per 5 ms tick.
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
 from typing import Callable, Dict, Tuple
 
 __all__ = ["IncrementalPI", "DRIVE_LAWS", "drive_proportional", "drive_constant_counter",
@@ -131,8 +129,3 @@ DRIVE_LAWS: Dict[str, DriveLaw] = {
 def register_drive_law(name: str, law: DriveLaw) -> None:
     """Add a drive law ``law(u, counter_fraction) -> (duty_a, duty_b)`` to the table."""
     DRIVE_LAWS[name] = law
-
-
-def is_finite(x: float) -> bool:
-    """True for a finite float (firmware guards against NaN from a broken port)."""
-    return isinstance(x, (int, float)) and math.isfinite(x)

@@ -24,7 +24,7 @@ bits is detected as well.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable, List, Optional, Sequence, Set
 
 __all__ = [

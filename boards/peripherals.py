@@ -464,6 +464,6 @@ class StepDir:
 POLL_PRIORITY = PRIO_BACKGROUND
 
 
-from boards.endat import EnDatMaster  # noqa: E402  (peripheral defined with its protocol)
+from boards.endat import EnDatMaster  # noqa: E402  (defined with its protocol)
 
 __all__.append("EnDatMaster")

@@ -14,9 +14,12 @@ analytic rules for model reduction and PID controller tuning", J. Process Contro
    counter motor; by superposition (§3.3) the net is (1 − p)·U·V_supply.
 3. Output: the firmware's measured variable is the *axis* rate in arcsec/s, so
    k = (1 − p)·V_supply·K/(R σ2_r + K²)/N·(648000/π)   [(″/s) per unit duty].
-4. Dead time θ = Δt/2 (paper §4; the QEI velocity is a count difference over one tick, i.e.
-   the mean rate over the last tick, which lags by Δt/2; the zero-order-hold adds the same order
-   again and is left to the robustness margin of τc = θ').
+4. Dead time θ = Δt/2 from discretisation (the zero-order hold, paper §4) **plus** Δt/2 for
+   the measurement: the firmware's rate is a QEI count difference over one tick, i.e. the mean
+   rate over the last tick, which lags the true rate by Δt/2. Total θ = Δt by default
+   (``include_measurement_lag=True``). With the paper's Δt/2 alone the sampled linear loop of
+   the RA axis overshoots a rate step by ≈67 % (see tests/test_boards_control.py); with θ = Δt
+   by ≈20 %, the usual SIMC behaviour when the dead time is modelled right.
 5. Half rule: τ1' = τ1 + τ2/2, θ' = θ + τ2/2 (first-order-plus-dead-time equivalent).
 6. SIMC PI: Kc = τ1'/(k (τc + θ')), τI = min(τ1', 4 (τc + θ')), with τc = θ' ("tight control").
 7. Incremental discrete form of §4: Kp = Kc, Ki = Kc·Δt/τI (per tick).
@@ -56,7 +59,7 @@ class PiGains:
     tau1_s, tau2_s : float
         Time constants of eq. 6 (τ1 ≥ τ2), s.
     theta_s : float
-        Dead time Δt/2, s.
+        Dead time θ (Δt/2 discretisation + Δt/2 measurement by default), s.
     tau1_eff_s, theta_eff_s : float
         Half-rule τ1' and θ', s.
     tau_c_s : float
@@ -101,7 +104,8 @@ class PiGains:
 def pi_gains_from_model(*, inertia_kg_m2: float, sigma2_nm_s_rad: float, gear_ratio: float,
                         r_ohm: float, l_h: float, k_nm_a: float, rotor_inertia_kg_m2: float,
                         counter_fraction: float, supply_v: float, tick_us: int,
-                        tau_c_s: float | None = None) -> PiGains:
+                        tau_c_s: float | None = None,
+                        include_measurement_lag: bool = True) -> PiGains:
     """SIMC PI gains for the twin-motor axis from the paper's eq. 6 SOPDT model.
 
     Parameters
@@ -117,7 +121,8 @@ def pi_gains_from_model(*, inertia_kg_m2: float, sigma2_nm_s_rad: float, gear_ra
     k_nm_a : float
         Motor constant K (N·m/A = V·s/rad).
     rotor_inertia_kg_m2 : float
-        Rotor inertia added at the motor shaft, kg·m².
+        Rotor inertia added at the motor shaft, kg·m²: pass the sum of both rotors
+        (2 × per-motor value), since both turn with the axis.
     counter_fraction : float
         p, the counter-motor fraction of the drive law (0.10-0.25, §3.3).
     supply_v : float
@@ -126,6 +131,8 @@ def pi_gains_from_model(*, inertia_kg_m2: float, sigma2_nm_s_rad: float, gear_ra
         Sampling period Δt, µs (5000).
     tau_c_s : float, optional
         SIMC closed-loop time constant; default θ' (tight control).
+    include_measurement_lag : bool
+        Add Δt/2 for the per-tick mean-rate measurement to the paper's Δt/2 (default True).
 
     Returns
     -------
@@ -161,7 +168,7 @@ def pi_gains_from_model(*, inertia_kg_m2: float, sigma2_nm_s_rad: float, gear_ra
     else:                                  # underdamped: critically damped equivalent (documented)
         tau1 = tau2 = 1.0 / math.sqrt(a0)
     dt = tick_us * 1e-6
-    theta = dt / 2.0
+    theta = dt / 2.0 + (dt / 2.0 if include_measurement_lag else 0.0)
     tau1e = tau1 + tau2 / 2.0
     thetae = theta + tau2 / 2.0
     tc = thetae if tau_c_s is None else float(tau_c_s)

@@ -95,7 +95,7 @@ class HostClient:
     expected_nodes : tuple of int
         Nodes that must answer the power-on health check.
     preset_rates_arcsec_s : dict
-        Firmware preset rates by mode name, to report setpoints.
+        Firmware preset rates keyed by ``(mode name, axis)``, to report setpoints.
     open_loop_duty : callable(rate_arcsec_s, axis) -> float
         The operator's duty-speed map for open-loop runs.
     adc_to_current_a : callable(counts) -> float
@@ -148,15 +148,13 @@ class HostClient:
             self.malformed_frames += 1
             self._error(now, f"0x{msg.arbitration_id:03X}", "malformed-frame", str(exc))
             return
-        if frame is None:  # a frame the host does not consume (commands of another host)
-            return
         kind = type(frame).__name__
         handler = getattr(self, f"_on_{kind}", None)
         if handler is not None:
             handler(msg.arbitration_id, frame, now)
 
     def _on_AxisStatus(self, cob_id: int, f, now: int) -> None:
-        node = cob_id - P.axis_status_cob_id(0)
+        node = P.node_of(cob_id)
         axis = "ra" if node == P.NODE_RA_AXIS else "dec"
         st = self.axes[axis]
         raw = f.qei_counts
@@ -180,14 +178,14 @@ class HostClient:
         self._last_mode[axis] = f.mode
 
     def _on_AxisAux(self, cob_id: int, f, now: int) -> None:
-        node = cob_id - P.axis_aux_cob_id(0)
+        node = P.node_of(cob_id)
         st = self.axes["ra" if node == P.NODE_RA_AXIS else "dec"]
         st.current_a_a = self.adc_to_current_a(f.adc_a)
         st.current_b_a = self.adc_to_current_a(f.adc_b)
         st.rate_arcsec_s = f.qei_delta * ARCSEC_PER_COUNT / 0.005
 
     def _on_Position(self, cob_id: int, f, now: int) -> None:
-        node = cob_id - P.position_cob_id(0)
+        node = P.node_of(cob_id)
         ps = self.positions["ra" if node == P.NODE_RA_READER else "dec"]
         if f.crc_errors != ps.crc_errors and ps.t_us >= 0:
             self._error(now, NODE_NAMES[node], "endat-crc", f"crc_errors {ps.crc_errors} -> {f.crc_errors}")
@@ -198,22 +196,22 @@ class HostClient:
             f.pos_halfsteps, f.lvdt_adc, f.flags, now)
 
     def _on_Heartbeat(self, cob_id: int, f, now: int) -> None:
-        node = cob_id - P.heartbeat_cob_id(0)
+        node = P.node_of(cob_id)
         self.heartbeats[node] = (now, f.state, f.malformed_frames)
         if self._last_state.get(node) != f.state:
             if self.logs:
                 self.logs.status(now, node, NODE_NAMES.get(node, str(node)), "state",
-                                 f"{P.BoardState(f.state).name} reset_cause={P.ResetCause(f.reset_cause).name} "
+                                 f"{P.NodeState(f.state).name} reset_cause={P.ResetCause(f.reset_cause).name} "
                                  f"malformed={f.malformed_frames}")
             self._last_state[node] = f.state
 
     def _on_Fault(self, cob_id: int, f, now: int) -> None:
-        node = cob_id - P.fault_cob_id(0)
-        self._error(now, NODE_NAMES.get(node, str(node)), P.FaultCode(f.error_code).name.lower(),
+        node = P.node_of(cob_id)
+        self._error(now, NODE_NAMES.get(node, str(node)), P.FaultCode(f.code).name.lower(),
                     f"malformed={f.malformed_frames} crc_errors={f.crc_errors} detail={f.detail}")
 
     def _on_Limit(self, cob_id: int, f, now: int) -> None:
-        node = cob_id - P.limit_cob_id(0)
+        node = P.node_of(cob_id)
         if self.logs:
             self.logs.status(now, node, NODE_NAMES.get(node, str(node)), "limit", f"flags=0x{f.flags:02X} pos={f.pos_counts}")
 
@@ -241,7 +239,7 @@ class HostClient:
             ``ok`` is false and ``missing`` names each board that did not answer in time.
         """
         t0 = self.scheduler.now_us
-        self._send(P.HOST_BROADCAST_COB_ID, P.encode_host_broadcast(P.HostCommand.PING, 0, 0), "all", "PING",
+        self._send(P.host_broadcast_cob_id(), P.encode_host_broadcast(P.BroadcastCommand.PING, 0, P.ResetCause.POWER_ON), "all", "PING",
                    "power-on health check")
         self.scheduler.run_until(t0 + self.POWER_ON_US)
         answered = {NODE_NAMES[n]: self.heartbeats[n][0] for n in self.expected_nodes
@@ -292,7 +290,7 @@ class HostClient:
         elif mode == "stop":
             sp = 0.0
         else:
-            sp = direction * self.preset_rates_arcsec_s[mode]
+            sp = direction * self.preset_rates_arcsec_s[(mode, axis)]
         self._send(P.axis_command_cob_id(node), P.encode_axis_command(cmd, direction, value),
                    NODE_NAMES[node], mode.upper(), f"direction={direction:+d} value={value}")
         return float(sp)

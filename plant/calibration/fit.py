@@ -6,7 +6,8 @@ script of the benchmark), generalised:
 1. The measured position is low-pass filtered with a zero-phase 4th-order Butterworth filter
    (cut-off ``cutoff_hz``, default ``fs/10`` — 100 Hz at EMPS's 1 kHz) and differentiated twice
    by central differences (``numpy.gradient``) to give velocity and acceleration.
-2. The first ``n_border = 49`` samples are dropped (filter/difference edge effects).
+2. The first ``n_border = 49`` samples are dropped (filter/difference edge effects). Outside the
+   EMPS benchmark, decimated samples at standstill are dropped as well (see :func:`prepare`).
 3. The regressor columns (``ddq``, ``dq``, ``sign(dq)``, ``1`` and any effect columns) are built at
    the full rate and every column *and* the measured torque are decimated in parallel by
    ``decimate`` (default 10: an order-8 Chebyshev-I low-pass at 0.8 of the new Nyquist frequency,
@@ -25,7 +26,8 @@ Model (load-side torque the drive must supply, all terms at the axis)::
     T = J·ddq + Fv·w + Fc·c + offset + (Ts − Fc)·c·exp(−(|w|/vs)²) + Σ additive effects
 
 with ``w = dq`` and ``c = sign(dq)`` in the baseline. Effects change this as follows:
-``asymmetric_friction`` splits ``w`` and ``c`` into their positive and negative parts;
+``asymmetric_friction`` splits ``w`` and ``c`` into their positive and negative parts (and drops
+the offset, which the two Coulomb levels then absorb — it is not separately identifiable);
 ``presliding`` replaces ``c`` by the normalised LuGre bristle force ``s`` (ds/dt = k(w − |w|s),
 ``k = σ0/Fc``) and adds ``σ1·(w − |w|s)``; ``backlash`` computes ``w`` and ``c`` from the
 play-operator output of the position (the load moves only once the gap is closed);
@@ -80,11 +82,14 @@ class Prepared:
     q_dec: np.ndarray
     dq_dec: np.ndarray
     y_dec: np.ndarray
-    _sos: Any = None
+    keep: np.ndarray | None = None
+    n_standstill: int = 0
 
     def dec(self, x: np.ndarray) -> np.ndarray:
-        """Decimate full-rate column(s) (axis 0) like Matlab ``decimate`` (IIR, zero phase)."""
-        return _decimate(x, self.decim)
+        """Decimate full-rate column(s) (axis 0) like Matlab ``decimate`` (IIR, zero phase) and keep
+        the rows used by the fit (standstill rows dropped, see :func:`prepare`)."""
+        out = _decimate(x, self.decim)
+        return out if self.keep is None else out[self.keep]
 
 
 def _decimate(x: np.ndarray, r: int) -> np.ndarray:
@@ -98,7 +103,14 @@ def _decimate(x: np.ndarray, r: int) -> np.ndarray:
     return xf[nbeg - 1 :: r]
 
 
-def prepare(record: Record, cutoff_hz: float | None = None, decimate: int = 10, n_border: int = N_BORDER) -> Prepared:
+def prepare(
+    record: Record,
+    cutoff_hz: float | None = None,
+    decimate: int = 10,
+    n_border: int = N_BORDER,
+    exclude_standstill: bool | None = None,
+    standstill_frac: float = 0.02,
+) -> Prepared:
     """Filter, differentiate and set up the decimation for a record.
 
     Parameters
@@ -110,6 +122,11 @@ def prepare(record: Record, cutoff_hz: float | None = None, decimate: int = 10, 
         Parallel decimation factor (EMPS benchmark: ``round(0.8·fnyq/40 Hz) = 10``).
     n_border : int
         Samples dropped at the start (benchmark: 49).
+    exclude_standstill : bool, optional
+        Drop decimated samples at rest (``|dq| < standstill_frac × 95th-percentile speed``): at
+        rest the friction can be anything between the static limits, so ``sign(dq)`` of a
+        noise-level velocity is meaningless there. Default: True, except for EMPS records, where
+        the benchmark procedure (all samples) is reproduced.
 
     Raises
     ------
@@ -130,10 +147,21 @@ def prepare(record: Record, cutoff_hz: float | None = None, decimate: int = 10, 
     ddq = np.gradient(dq, dt)
     sl = slice(n_border, None)
     t, q, dq, ddq, y = record.t_s[sl], qf[sl], dq[sl], ddq[sl], record.torque[sl]
+    t_dec, q_dec, dq_dec, y_dec = (_decimate(x, decimate) for x in (t, q, dq, y))
+    if exclude_standstill is None:
+        exclude_standstill = record.extra.get("format") != "emps"
+    keep = None
+    n_still = 0
+    if exclude_standstill:
+        v95 = float(np.percentile(np.abs(dq_dec), 95))
+        mask = np.abs(dq_dec) >= standstill_frac * v95
+        n_still = int((~mask).sum())
+        if n_still:
+            keep = np.flatnonzero(mask)
+            t_dec, q_dec, dq_dec, y_dec = t_dec[keep], q_dec[keep], dq_dec[keep], y_dec[keep]
     return Prepared(
         record=record, t=t, q=q, dq=dq, ddq=ddq, y=y, dt_s=dt, decim=decimate, cutoff_hz=cutoff_hz,
-        t_dec=_decimate(t, decimate), q_dec=_decimate(q, decimate), dq_dec=_decimate(dq, decimate),
-        y_dec=_decimate(y, decimate),
+        t_dec=t_dec, q_dec=q_dec, dq_dec=dq_dec, y_dec=y_dec, keep=keep, n_standstill=n_still,
     )
 
 
@@ -265,8 +293,12 @@ def design_full(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None, t=No
     else:
         names += ["viscous", "coulomb"]
         cols += [w, c]
-    names.append("offset")
-    cols.append(np.ones_like(w))
+    if not spec.asymmetric:
+        # With direction-dependent Coulomb levels the offset is not identifiable (the velocity is
+        # almost never exactly zero, so max(c,0) − min(c,0) = 1 = the offset column): it is
+        # absorbed, coulomb_pos = Fc + offset, coulomb_neg = Fc − offset.
+        names.append("offset")
+        cols.append(np.ones_like(w))
     if spec.stribeck_vs is not None:
         names.append("stribeck")
         cols.append(c * np.exp(-((w / spec.stribeck_vs) ** 2)))
@@ -359,46 +391,77 @@ def _rss_for(prep: Prepared, spec: ModelSpec) -> float:
     return float(r @ r)
 
 
-def refine_hyper(prep: Prepared, spec: ModelSpec, rel_bounds: float | dict[int, float] = 0.3, maxiter: int = 200) -> ModelSpec:
+def refine_hyper(
+    prep: Prepared,
+    spec: ModelSpec,
+    rel_bounds: float | dict[int, float] = 0.3,
+    free: list[int] | None = None,
+    maxiter: int = 200,
+) -> ModelSpec:
     """Refine the nonlinear hyper-parameters (log space, bounded) by minimising the RSS.
 
-    One hyper-parameter: bounded scalar minimisation; several: Nelder–Mead from the current point
-    (bounds enforced by an infinite penalty). ``rel_bounds`` is the allowed relative change
-    (log-space half-width ``log1p``), per hyper-parameter index if a dict.
+    Parameters
+    ----------
+    rel_bounds : float or dict
+        Allowed relative change of each hyper-parameter (log-space half-width ``log1p(rel)``),
+        per hyper-parameter index if a dict (default 0.3).
+    free : list of int, optional
+        Indices (into ``spec.hyper()``) to refine; the others stay fixed. Default: all.
+
+    Notes
+    -----
+    One free parameter: bounded scalar minimisation; several: Nelder–Mead (bounds by an infinite
+    penalty). The linear parameters are solved inside each evaluation (variable projection).
     """
     h = spec.hyper()
     if not h:
         return spec
-    x0 = np.log([v for *_, v in h])
+    free = list(range(len(h))) if free is None else list(free)
+    if not free:
+        return spec
+    full0 = np.log([v for *_, v in h])
+    x0 = full0[free]
     widths = np.array(
-        [math.log1p(rel_bounds.get(i, 0.3) if isinstance(rel_bounds, dict) else rel_bounds) for i in range(len(h))]
+        [math.log1p(rel_bounds.get(i, 0.3) if isinstance(rel_bounds, dict) else rel_bounds) for i in free]
     )
 
     def f(x: np.ndarray) -> float:
-        if np.any(np.abs(x - x0) > widths):
+        if np.any(np.abs(x - x0) > widths + 1e-12):
             return float("inf")
-        return _rss_for(prep, spec.with_hyper(np.exp(x)))
+        full = full0.copy()
+        full[free] = x
+        return _rss_for(prep, spec.with_hyper(np.exp(full)))
 
-    if len(h) == 1:
+    f0 = f(x0)
+    if len(free) == 1:
         res = optimize.minimize_scalar(
             lambda z: f(np.array([z])), bounds=(x0[0] - widths[0], x0[0] + widths[0]), method="bounded",
-            options={"xatol": 1e-5, "maxiter": maxiter},
+            options={"xatol": 1e-6, "maxiter": maxiter},
         )
-        best = np.array([res.x]) if res.fun <= f(x0) else x0
+        best = np.array([res.x]) if res.fun <= f0 else x0
     else:
         simplex = [x0] + [x0 + np.eye(len(x0))[i] * widths[i] * 0.3 for i in range(len(x0))]
         res = optimize.minimize(
             f, x0, method="Nelder-Mead",
-            options={"initial_simplex": np.array(simplex), "xatol": 1e-5, "fatol": 1e-9 * max(f(x0), 1e-300), "maxiter": maxiter},
+            options={"initial_simplex": np.array(simplex), "xatol": 1e-6, "fatol": 1e-10 * max(f0, 1e-300), "maxiter": maxiter},
         )
-        best = res.x if res.fun <= f(x0) else x0
-    return spec.with_hyper(np.exp(best))
+        best = res.x if res.fun <= f0 else x0
+    full = full0.copy()
+    full[free] = best
+    return spec.with_hyper(np.exp(full))
 
 
-def fit_model(prep: Prepared, spec: ModelSpec, refine: bool = True, rel_bounds: float | dict[int, float] = 0.3) -> FitResult:
-    """Fit ``spec`` to a prepared record (hyper-parameters refined first if ``refine``)."""
+def fit_model(
+    prep: Prepared,
+    spec: ModelSpec,
+    refine: bool = True,
+    rel_bounds: float | dict[int, float] = 0.3,
+    free: list[int] | None = None,
+) -> FitResult:
+    """Fit ``spec`` to a prepared record (hyper-parameters refined first if ``refine``; see
+    :func:`refine_hyper` for ``rel_bounds`` and ``free``)."""
     if refine and spec.n_hyper():
-        spec = refine_hyper(prep, spec, rel_bounds=rel_bounds)
+        spec = refine_hyper(prep, spec, rel_bounds=rel_bounds, free=free)
     names, X = design(prep, spec)
     y = prep.y_dec
     coef, r = _solve(X, y)
@@ -419,7 +482,7 @@ def fit_model(prep: Prepared, spec: ModelSpec, refine: bool = True, rel_bounds: 
     )
 
 
-def predict(prep: Prepared, fit: FitResult, refit_phases: bool = True) -> tuple[np.ndarray, np.ndarray]:
+def predict(prep: Prepared, fit: FitResult, refit_phases: bool = True, return_coef: bool = False):
     """Evaluate a fitted model on another prepared record (held-out validation).
 
     All parameters are taken from ``fit`` except, if ``refit_phases``, the *phases* of
@@ -429,7 +492,7 @@ def predict(prep: Prepared, fit: FitResult, refit_phases: bool = True) -> tuple[
     Returns
     -------
     yhat, residual : ndarray
-        Decimated prediction and residual.
+        Decimated prediction and residual (and the coefficients used, if ``return_coef``).
     """
     names, X = design(prep, fit.spec)
     coef = fit.coef.copy()
@@ -453,4 +516,6 @@ def predict(prep: Prepared, fit: FitResult, refit_phases: bool = True) -> tuple[
             coef[i], coef[i + 1] = amp * np.cos(ph), amp * np.sin(ph)
             base = other + X[:, i] * coef[i] + X[:, i + 1] * coef[i + 1]
     yhat = X @ coef
+    if return_coef:
+        return yhat, y - yhat, coef
     return yhat, y - yhat

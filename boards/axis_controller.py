@@ -1,0 +1,406 @@
+"""Axis controller firmware (dsPIC30F3011), node 1 = RA, node 2 = DEC (paper §3.3, §4).
+
+Every 5 ms the timer ISR reads the QEI (incremental encoder through the 1:24.5 friction roller),
+forms the axis rate from the count difference over one tick, samples both shunt currents with
+the 10-bit ADC, runs the incremental PI of §4 (:class:`boards.control.IncrementalPI`), splits
+the effort U into two PWM duties with the twin-motor drive law of §3.3, and every second tick
+queues AXIS_STATUS and AXIS_AUX (10 ms). Commands arrive as AXIS_COMMAND frames; the axis's
+EnDat position reader sends LIMIT frames.
+
+Velocity measurement and its quantisation
+-----------------------------------------
+One QEI count is 360°·3600/(4.608e6·24.5) = 0.011480″ of axis angle (§3.2: "0.011 arc sec").
+Counted over one 5 ms tick, one count is 2.296″/s of axis rate: 15 % of the 15″/s tracking
+rate. The firmware uses the per-tick difference as the paper describes ("encoder feedback
+module ... for estimating the velocity", 5 ms sampling); the PI's integral action averages it.
+
+Preset rates (axis rate, arcsec/s)
+----------------------------------
+See :data:`PRESET_RATES_ARCSEC_S`. Only SLEW and TRACK come from the paper.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, Optional
+
+import can
+
+from bus import protocol as proto
+from boards.control import DRIVE_LAWS, IncrementalPI
+from boards.firmware_base import (FAULT_LIMIT_STOP, FAULT_OVERCURRENT, STATE_FAULT, Board)
+from boards.peripherals import Adc, Pwm, Qei, Timer
+from boards.tuning import ARCSEC_PER_RAD
+from bus.errors import MalformedFrame
+from bus.scheduler import PRIO_ISR, Scheduler
+
+__all__ = ["AxisController", "AxisMode", "PRESET_RATES_ARCSEC_S", "QEI_COUNTS_PER_REV",
+           "DEFAULT_KP", "DEFAULT_KI"]
+
+
+class AxisMode:
+    """Axis modes (byte 1 of AXIS_STATUS) and AXIS_COMMAND command codes."""
+
+    STOP, SLEW, SET, GUIDE, FINE, TRACK, VELOCITY, OPEN_LOOP, LIMIT_STOP = range(9)
+    SET_KP, SET_KI = 8, 9        # command codes (not modes)
+    NAMES = ("STOP", "SLEW", "SET", "GUIDE", "FINE", "TRACK", "VELOCITY", "OPEN_LOOP",
+             "LIMIT_STOP")
+
+
+#: Incremental-encoder counts per axis revolution: 4.608e6 counts/rev (Gurley 8x60, §3.2)
+#: × 24.5 (735:30 friction roller, §2.2).
+QEI_COUNTS_PER_REV = 4_608_000 * 245 // 10
+
+#: Slew: Table 1 gives 12.583 rad/s at the motor; / 360.489 (§2.2) = 0.034906 rad/s at the
+#: axis = 7199.8″/s ≈ 2.000°/s.
+SLEW_ARCSEC_S = 12.583 / 360.489 * ARCSEC_PER_RAD
+
+#: Preset axis rates, arcsec/s. ``(RA, DEC)`` per preset.
+#:
+#: ====== ============ ========= ===========================================================
+#: preset RA ″/s       DEC ″/s   source
+#: ====== ============ ========= ===========================================================
+#: SLEW   7199.8       7199.8    Table 1 (12.583 rad/s motor / 360.489 ≈ 2°/s)
+#: SET    600          600       assumed: the high speed of Figs. 6, 11 ("600 arc sec/s")
+#: GUIDE  100          100       assumed: the low speed of Fig. 7 ("100 arc sec/s")
+#: FINE   30           30        assumed: between guide and tracking (not in the paper)
+#: TRACK  15.0         0         §1 "15 arc sec/s" (sidereal 15.041″/s); DEC does not track
+#:                               on an equatorial mount (§2.1)
+#: ====== ============ ========= ===========================================================
+PRESET_RATES_ARCSEC_S = {
+    AxisMode.SLEW: (SLEW_ARCSEC_S, SLEW_ARCSEC_S),
+    AxisMode.SET: (600.0, 600.0),
+    AxisMode.GUIDE: (100.0, 100.0),
+    AxisMode.FINE: (30.0, 30.0),
+    AxisMode.TRACK: (15.0, 0.0),
+}
+
+#: Default gains: :func:`boards.tuning.pi_gains_from_model` for the RA axis of
+#: plant/parameters.yaml (J = 1760 kg·m² §4, σ2 = 6700 N·m·s/rad Table 2 low preload,
+#: N = 360.489, assumed R = 1.2 Ω, L = 1.5 mH, K = 0.35 N·m/A, rotor inertia 2 × 3e-4 kg·m²,
+#: p = 0.25, 24 V, 5 ms, dead time Δt). host/network.py should compute the gains per axis.
+DEFAULT_KP = 4.17e-4      # duty per (″/s)
+DEFAULT_KI = 4.63e-5      # duty per (″/s) per tick
+
+STATUS_LIMIT, STATUS_ANTIWINDUP, STATUS_OVERCURRENT, STATUS_FAULT = 0x01, 0x02, 0x04, 0x08
+LIMIT_LOW, LIMIT_HIGH, LIMIT_INVALID = 0x01, 0x02, 0x04
+
+
+class AxisController(Board):
+    """dsPIC30F3011 axis controller firmware.
+
+    Parameters
+    ----------
+    scheduler : Scheduler
+        The simulation clock.
+    bus : can.BusABC
+        This board's CAN bus handle.
+    node_id : int
+        1 (RA) or 2 (DEC).
+    read_qei_counts : callable
+        Port: cumulative incremental-encoder count (int).
+    on_duties : callable
+        Port ``on_duties(duty_a, duty_b)`` (0..1 each; motor A drives +, motor B drives −).
+    shunt_a_v, shunt_b_v : callable
+        Ports: shunt voltages of motor A and B, V (0.1 Ω · armature current).
+    kp : float
+        Proportional gain, duty per (″/s) (default :data:`DEFAULT_KP`).
+    ki : float
+        Integral gain per tick, duty per (″/s) per tick (default :data:`DEFAULT_KI`).
+    u_max : float
+        Effort limit, duty fraction.
+    counter_fraction : float
+        p, the counter-motor fraction (0.10-0.25, §3.3); host passes the plant file's value.
+    law : str
+        Drive law name in :data:`boards.control.DRIVE_LAWS` (``"proportional"`` = the paper's).
+    axis : int, optional
+        0 RA, 1 DEC (default node_id − 1).
+    limit_reader_node : int, optional
+        Node whose LIMIT frames apply (default node_id + 2).
+    tick_us : int
+        ISR period, µs (5000, §3.3).
+    status_every_ticks : int
+        AXIS_STATUS/AXIS_AUX every this many ticks (2 → 10 ms).
+    qei_counts_per_rev : int
+        Encoder counts per axis revolution.
+    shunt_ohm : float
+        Shunt resistance, Ω (0.1, §3.3).
+    overcurrent_a : float
+        Flag threshold, A (6 A continuous rating, §3.2).
+    overcurrent_trip : bool
+        If True, an over-current also stops the drive (latched until the next motion command).
+        Default False: the paper describes no trip.
+    limit_stop : {"hold", "coast"}
+        On a limit: "hold" = PI to zero rate and hold; "coast" = U = 0, duties 0.
+    name : str, optional
+        Owner name (default "ra-axis"/"dec-axis").
+    """
+
+    DEVICE_TYPE = int(proto.DeviceType.AXIS_CONTROLLER)
+    KIND = "axis"
+
+    def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int = 1, *,
+                 read_qei_counts: Callable[[], int],
+                 on_duties: Optional[Callable[[float, float], None]] = None,
+                 shunt_a_v: Callable[[], float] = lambda: 0.0,
+                 shunt_b_v: Callable[[], float] = lambda: 0.0,
+                 kp: float = DEFAULT_KP, ki: float = DEFAULT_KI, u_max: float = 1.0,
+                 counter_fraction: float = 0.25, law: str = "proportional",
+                 axis: Optional[int] = None, limit_reader_node: Optional[int] = None,
+                 tick_us: int = 5_000, status_every_ticks: int = 2,
+                 qei_counts_per_rev: int = QEI_COUNTS_PER_REV, shunt_ohm: float = 0.1,
+                 overcurrent_a: float = 6.0, overcurrent_trip: bool = False,
+                 limit_stop: str = "hold", name: Optional[str] = None) -> None:
+        if law not in DRIVE_LAWS:
+            raise ValueError(f"unknown drive law {law!r}; valid: {sorted(DRIVE_LAWS)}")
+        if not 0.0 <= counter_fraction < 1.0:
+            raise ValueError(f"counter_fraction must be in [0, 1), got {counter_fraction}")
+        if limit_stop not in ("hold", "coast"):
+            raise ValueError("limit_stop must be 'hold' or 'coast'")
+        self.axis = (node_id - 1) if axis is None else int(axis)
+        default_name = ("ra-axis", "dec-axis")[self.axis] if self.axis in (0, 1) else None
+        super().__init__(scheduler, bus, node_id, name=name or default_name,
+                         background_period_us=tick_us)
+        self.tick_us = int(tick_us)
+        self.kp0, self.ki0, self.u_max = float(kp), float(ki), float(u_max)
+        self.counter_fraction = float(counter_fraction)
+        self.law_name = law
+        self.law = DRIVE_LAWS[law]
+        self.status_every_ticks = int(status_every_ticks)
+        self.qei_counts_per_rev = int(qei_counts_per_rev)
+        self.arcsec_per_count = 1_296_000.0 / self.qei_counts_per_rev
+        self.rate_per_count = self.arcsec_per_count / (self.tick_us * 1e-6)   # (″/s) per count
+        self.shunt_ohm = float(shunt_ohm)
+        self.overcurrent_a = float(overcurrent_a)
+        self.overcurrent_trip = bool(overcurrent_trip)
+        self.limit_stop_mode = limit_stop
+        self.limit_reader_node = node_id + 2 if limit_reader_node is None else limit_reader_node
+
+        self.pwm = Pwm(2, on_duties)
+        self.qei = Qei(read_qei_counts)
+        self.adc = Adc({"a": shunt_a_v, "b": shunt_b_v})
+        self.timer = self.add_timer(Timer(scheduler, self.tick_us, self.isr_tick,
+                                          priority=PRIO_ISR, owner=f"{self.name}/isr"))
+        self.accept_id(proto.axis_command_cob_id(self.node_id))
+        self.accept_id(proto.limit_cob_id(self.limit_reader_node))
+        self._init_axis_state()
+
+    # ------------------------------------------------------------------ state
+    def _peripherals(self) -> list:
+        return [self.pwm, self.qei, self.adc]
+
+    def _init_state(self) -> None:
+        super()._init_state()
+        if hasattr(self, "pwm"):
+            self._init_axis_state()
+
+    def _init_axis_state(self) -> None:
+        self.pi = IncrementalPI(self.kp0, self.ki0, self.u_max)
+        self.mode = AxisMode.STOP
+        self.setpoint_arcsec_s = 0.0
+        self.open_loop_u = 0.0
+        self.omega_arcsec_s = 0.0
+        self.qei_delta = 0
+        self.adc_a = self.adc_b = 0
+        self.current_a = (0.0, 0.0)
+        self.overcurrent = False
+        self.tripped = False
+        self.limit_flags = 0
+        self.position_invalid = False
+        self.limit_refusals = 0
+        self.ticks = 0
+        self.aux_seq = 0
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def u(self) -> float:
+        """Control effort U, signed duty fraction."""
+        return self.pi.u
+
+    @property
+    def duties(self) -> tuple:
+        """PWM duties (motor A, motor B) as output (quantised)."""
+        return self.pwm.duties
+
+    @property
+    def kp(self) -> float:
+        """Proportional gain, duty per (″/s)."""
+        return self.pi.kp
+
+    @property
+    def ki(self) -> float:
+        """Integral gain, duty per (″/s) per tick."""
+        return self.pi.ki
+
+    def heartbeat_state(self) -> int:
+        return STATE_FAULT if self.tripped else self.state
+
+    def on_start(self) -> None:
+        self.qei.reset()          # POSCNT cleared at boot: the present count is the zero
+        self._write_outputs()
+
+    # ------------------------------------------------------------------ ISR (5 ms)
+    def isr_tick(self, now_us: int) -> None:
+        """Timer ISR: sample QEI and ADC, run the PI, write the duties, set flags."""
+        self.ticks += 1
+        delta = self.qei.read_delta()
+        self.qei_delta = delta
+        self.omega_arcsec_s = delta * self.rate_per_count
+        self.adc_a = self.adc.sample("a")
+        self.adc_b = self.adc.sample("b")
+        lsb = self.adc.lsb_v / self.shunt_ohm
+        self.current_a = (self.adc_a * lsb, self.adc_b * lsb)
+        over = max(self.current_a) > self.overcurrent_a
+        if over and not self.overcurrent:
+            self.queue(proto.fault_cob_id(self.node_id), None)     # FAULT built in background
+            if self.overcurrent_trip:
+                self.tripped = True
+                self.mode = AxisMode.STOP
+                self.setpoint_arcsec_s = 0.0
+                self.pi.force(0.0)
+        self.overcurrent = over
+
+        if self.tripped or (self.mode == AxisMode.LIMIT_STOP and self.limit_stop_mode == "coast"):
+            self.pi.force(0.0)
+        elif self.mode == AxisMode.OPEN_LOOP:
+            self.pi.force(self.open_loop_u, 0.0)
+        else:
+            self.pi.update(self.setpoint_arcsec_s - self.omega_arcsec_s)
+        self._write_outputs()
+
+        if self.ticks % self.status_every_ticks == 0:
+            self.queue(proto.axis_status_cob_id(self.node_id), self._status_payload())
+            self.aux_seq = (self.aux_seq + 1) & 0xFF
+            self.queue(proto.axis_aux_cob_id(self.node_id),
+                       proto.encode_axis_aux(self.aux_seq, self.adc_a, self.adc_b,
+                                            max(-32768, min(32767, self.qei_delta))))
+
+    def _write_outputs(self) -> None:
+        if self.tripped:
+            self.pwm.set_duties(0.0, 0.0)
+            return
+        self.pwm.set_duties(*self.law(self.pi.u, self.counter_fraction))
+
+    def status_flags(self) -> int:
+        """AXIS_STATUS flags byte."""
+        f = 0
+        if self.limit_flags & (LIMIT_LOW | LIMIT_HIGH) or self.mode == AxisMode.LIMIT_STOP:
+            f |= STATUS_LIMIT
+        if self.pi.saturated:
+            f |= STATUS_ANTIWINDUP
+        if self.overcurrent:
+            f |= STATUS_OVERCURRENT
+        if self.tripped or self.position_invalid:
+            f |= STATUS_FAULT
+        return f
+
+    def _status_payload(self) -> bytes:
+        u_q15 = int(round(self.pi.u * 32767))
+        return proto.encode_axis_status(self.mode, self.status_flags(),
+                                       max(-32767, min(32767, u_q15)), self.qei.extended)
+
+    def _background(self, now_us: int) -> None:
+        # The ISR queued ``None`` as a placeholder for an over-current FAULT (built here, where
+        # counters are read, not in the ISR).
+        queue = []
+        for cob, data in self._tx_queue:
+            if data is None:
+                self.send_fault(FAULT_OVERCURRENT, int(max(self.current_a) * 1000) & 0xFFFF)
+            else:
+                queue.append((cob, data))
+        self._tx_queue = queue
+        super()._background(now_us)
+
+    # ------------------------------------------------------------------ commands
+    def handle_frame(self, arbitration_id: int, data: bytes) -> None:
+        if arbitration_id == proto.axis_command_cob_id(self.node_id):
+            self._command(proto.decode_axis_command(data))
+        elif arbitration_id == proto.limit_cob_id(self.limit_reader_node):
+            lim = proto.decode_limit(data)
+            if lim.axis != self.axis:
+                raise MalformedFrame("LIMIT", "axis", f"{self.axis}", lim.axis)
+            self._limit(lim.flags)
+        else:
+            super().handle_frame(arbitration_id, data)
+
+    def _direction(self, cmd: int, direction: int) -> int:
+        if direction in (1, -1):
+            return direction
+        if direction == 0 and cmd in (AxisMode.VELOCITY, AxisMode.OPEN_LOOP):
+            return 1
+        raise MalformedFrame("AXIS_COMMAND", "direction", "+1 or -1", direction)
+
+    def _command(self, c) -> None:
+        cmd = c.cmd
+        if cmd == AxisMode.STOP:
+            self._set_mode(AxisMode.STOP, 0.0)
+            return
+        if cmd in (AxisMode.SET_KP, AxisMode.SET_KI):
+            if c.value < 0:
+                raise MalformedFrame("AXIS_COMMAND", "value", "gain >= 0", c.value)
+            if cmd == AxisMode.SET_KP:
+                self.pi.kp = c.value * 1e-6
+            else:
+                self.pi.ki = c.value * 1e-6
+            return
+        sign = self._direction(cmd, c.direction)
+        if cmd == AxisMode.OPEN_LOOP:
+            if abs(c.value) > 32767:
+                raise MalformedFrame("AXIS_COMMAND", "value", "|duty_q15| <= 32767", c.value)
+            u = max(-self.u_max, min(self.u_max, sign * c.value / 32767.0))
+            if self._refuse(u, cmd):
+                return
+            self.tripped = False
+            self.open_loop_u = u
+            self.mode = AxisMode.OPEN_LOOP
+            return
+        if cmd == AxisMode.VELOCITY:
+            rate = sign * c.value / 1000.0
+        else:
+            rate = sign * PRESET_RATES_ARCSEC_S[cmd][min(self.axis, 1)]
+        if self._refuse(rate, cmd):
+            return
+        self.tripped = False
+        self._set_mode(int(cmd), rate)
+
+    def _set_mode(self, mode: int, rate: float) -> None:
+        # Bumpless: neither U nor E_{k-1} is touched (incremental form, see IncrementalPI).
+        self.mode = mode
+        self.setpoint_arcsec_s = float(rate)
+
+    def _limit_active_toward(self, sign: float) -> bool:
+        return bool((sign < 0 and self.limit_flags & LIMIT_LOW)
+                    or (sign > 0 and self.limit_flags & LIMIT_HIGH))
+
+    def _refuse(self, sign: float, cmd: int) -> bool:
+        if self._limit_active_toward(sign):
+            self.limit_refusals += 1
+            self.send_fault(FAULT_LIMIT_STOP, detail=cmd)
+            return True
+        return False
+
+    def motion_sign(self) -> int:
+        """Sign of the commanded motion (0 when stopped)."""
+        if self.mode == AxisMode.OPEN_LOOP:
+            x = self.open_loop_u
+        elif self.mode in (AxisMode.STOP, AxisMode.LIMIT_STOP):
+            return 0
+        else:
+            x = self.setpoint_arcsec_s
+        return (x > 0) - (x < 0)
+
+    def _limit(self, flags: int) -> None:
+        self.position_invalid = bool(flags & LIMIT_INVALID)
+        self.limit_flags = flags & (LIMIT_LOW | LIMIT_HIGH)
+        if self._limit_active_toward(self.motion_sign()):
+            self.mode = AxisMode.LIMIT_STOP
+            self.setpoint_arcsec_s = 0.0
+            self.open_loop_u = 0.0
+            if self.limit_stop_mode == "coast":
+                self.pi.force(0.0)
+            self.send_fault(FAULT_LIMIT_STOP, detail=flags)
+        elif self.mode == AxisMode.LIMIT_STOP and not self.limit_flags:
+            self.mode = AxisMode.STOP
+
+    def stop_all(self) -> None:
+        """HOST_BROADCAST STOP_ALL: controlled stop (PI to zero rate)."""
+        self._set_mode(AxisMode.STOP, 0.0)

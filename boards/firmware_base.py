@@ -1,0 +1,243 @@
+"""What every schmidt-fil board's firmware shares: CAN node, heartbeat, reset, malformed frames.
+
+A board is read-only configuration (device type, node id, name, periods) plus mutable runtime
+state that :meth:`Board.reset` restores to its power-on values. Firmware touches hardware only
+through its peripherals (:mod:`boards.peripherals`).
+
+Execution model (simulated time, :class:`bus.scheduler.Scheduler`):
+
+* timer ISRs at ``PRIO_ISR`` — sample, compute, write outputs, set flags; nothing else;
+* the CAN receive interrupt (``SimBus`` rx callback, ``PRIO_CAN``) — the receive handler
+  decodes and applies commands (short: parse, set a few variables);
+* a background loop at ``PRIO_BACKGROUND`` (same period and phase as the board's main timer, so
+  it runs right after the ISR at the same instant) — transmits the periodic frames queued by the
+  ISR and, on a bus without a receive interrupt, polls the CAN controller.
+
+Robustness contract (architecture.md, STYLE.md §8): a frame that cannot be decoded (wrong DLC,
+wrong device-type byte, unknown command or enum, remote or extended frame on an accepted id) is
+counted in ``malformed_frames`` and answered with a ``FAULT`` frame (error code 1, detail = the
+frame's identifier); the board never raises into the bus for it. Any *other* exception is a bug
+in the emulator and propagates (the scheduler stops the run and names the board).
+
+Reset semantics: :meth:`Board.reset` is a processor reset. RAM state, counters (malformed
+frames, CRC errors, CAN overflow) and outputs return to power-on values; ``reset_cause`` and
+``reset_count`` survive (they model the RCON register and a persistent boot counter). If the
+board was running, it boots again (schedules its ISRs, sends a BOOT heartbeat).
+"""
+
+from __future__ import annotations
+
+from typing import Dict, List, Optional
+
+import can
+
+from bus import protocol as proto
+from boards.peripherals import CanController, Timer
+from bus.errors import MalformedFrame
+from bus.scheduler import PRIO_BACKGROUND, Scheduler
+
+__all__ = ["Board", "RESET_CAUSES", "STATE_BOOT", "STATE_OPERATIONAL", "STATE_FAULT",
+           "STATE_STOPPED", "FAULT_MALFORMED", "FAULT_CRC", "FAULT_OVERCURRENT",
+           "FAULT_LIMIT_STOP", "FAULT_WATCHDOG"]
+
+RESET_CAUSES: Dict[str, int] = {"power_on": 0, "watchdog": 1, "software": 2}
+_CAUSE_NAMES = {v: k for k, v in RESET_CAUSES.items()}
+
+STATE_BOOT, STATE_OPERATIONAL, STATE_FAULT, STATE_STOPPED = 0, 1, 2, 3
+FAULT_MALFORMED, FAULT_CRC, FAULT_OVERCURRENT, FAULT_LIMIT_STOP, FAULT_WATCHDOG = 1, 2, 3, 4, 5
+
+BROADCAST_PING, BROADCAST_RESET, BROADCAST_STOP_ALL = 1, 2, 3
+HEARTBEAT_PERIOD_US = 1_000_000
+
+
+class Board:
+    """Base class of the board firmwares.
+
+    Parameters
+    ----------
+    scheduler : Scheduler
+        The simulation clock.
+    bus : can.BusABC
+        This board's bus handle (one per board; ``schmidt-sim`` gives the receive interrupt).
+    node_id : int
+        CAN node id (1..15).
+    name : str, optional
+        Owner name for scheduler errors, e.g. ``"ra-axis"``.
+    background_period_us : int
+        Period of the background loop, µs.
+    rx_buffers : int
+        CAN controller hardware receive buffers (2: MCP2515, PIC18F4480 ECAN mode 0).
+    """
+
+    DEVICE_TYPE = 0x00
+    KIND = "board"
+
+    def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int, *,
+                 name: Optional[str] = None, background_period_us: int = 5_000,
+                 rx_buffers: int = 2) -> None:
+        if not 1 <= int(node_id) <= 15:
+            raise ValueError(f"node_id must be 1..15, got {node_id}")
+        self.scheduler = scheduler
+        self.node_id = int(node_id)
+        self.name = name or f"{self.KIND}-{self.node_id}"
+        self.can = CanController(bus, rx_buffers=rx_buffers)
+        self.can.accept = self._accept
+        self.can.on_rx = self._on_rx
+        self.background_period_us = int(background_period_us)
+        self._heartbeat_timer = Timer(scheduler, HEARTBEAT_PERIOD_US, self._heartbeat_isr,
+                                      priority=PRIO_BACKGROUND, owner=f"{self.name}/heartbeat")
+        self._background_timer = Timer(scheduler, self.background_period_us, self._background,
+                                       priority=PRIO_BACKGROUND, owner=f"{self.name}/background")
+        self._timers: List[Timer] = [self._heartbeat_timer, self._background_timer]
+        self._accepted_ids = {proto.host_broadcast_cob_id()}
+        # persistent across resets (RCON-like)
+        self.reset_cause = "power_on"
+        self.reset_count = 0
+        self.started = False
+        self._init_state()
+
+    # ------------------------------------------------------------------ state
+    def _init_state(self) -> None:
+        self.malformed_frames = 0
+        self.state = STATE_BOOT
+        self.boot_us = self.scheduler.now_us
+        self._tx_queue: List[tuple] = []
+        self.faults_sent = 0
+
+    def _peripherals(self) -> list:
+        """Peripherals reset with the board (subclasses extend)."""
+        return []
+
+    def add_timer(self, timer: Timer) -> Timer:
+        """Register a timer that :meth:`start` starts and :meth:`reset` stops."""
+        self._timers.append(timer)
+        return timer
+
+    def accept_id(self, arbitration_id: int) -> None:
+        """Add an identifier to the CAN acceptance filter."""
+        self._accepted_ids.add(arbitration_id)
+
+    # ------------------------------------------------------------------ lifecycle
+    def start(self) -> None:
+        """Boot: enable the receive interrupt (or polling), start the ISRs, send a BOOT heartbeat."""
+        self.started = True
+        self.boot_us = self.scheduler.now_us
+        self.can.enable_rx_interrupt()
+        t0 = self.scheduler.now_us
+        for timer in self._timers:
+            timer.start(t0)
+        self.send_heartbeat()
+        self.state = STATE_OPERATIONAL
+        if self.reset_cause == "watchdog":
+            self.send_fault(FAULT_WATCHDOG, detail=self.reset_count)
+        self.on_start()
+
+    def on_start(self) -> None:
+        """Hook for subclasses after boot."""
+
+    def reset(self, cause: str = "power_on") -> None:
+        """Processor reset; see the module docstring for what survives.
+
+        Parameters
+        ----------
+        cause : {"power_on", "watchdog", "software"}
+        """
+        if cause not in RESET_CAUSES:
+            raise ValueError(f"reset cause must be one of {sorted(RESET_CAUSES)}, got {cause!r}")
+        was_running = self.started
+        for timer in self._timers:
+            timer.reset()
+        self.can.reset()
+        for p in self._peripherals():
+            p.reset()
+        self.reset_cause = cause
+        self.reset_count += 1
+        self.started = False
+        self._init_state()
+        if was_running:
+            self.start()
+
+    # ------------------------------------------------------------------ CAN
+    def _accept(self, arbitration_id: int) -> bool:
+        return arbitration_id in self._accepted_ids
+
+    def _on_rx(self, msg: can.Message) -> None:
+        try:
+            if msg.is_remote_frame or msg.is_extended_id or msg.is_error_frame:
+                raise MalformedFrame(f"id 0x{msg.arbitration_id:03X}", "frame type",
+                                     "standard data frame")
+            if msg.arbitration_id == proto.host_broadcast_cob_id():
+                self._handle_broadcast(proto.decode_host_broadcast(msg.data))
+            else:
+                self.handle_frame(msg.arbitration_id, bytes(msg.data))
+        except MalformedFrame:
+            self.malformed_frames += 1
+            self.send_fault(FAULT_MALFORMED, detail=msg.arbitration_id)
+
+    def handle_frame(self, arbitration_id: int, data: bytes) -> None:
+        """Decode and apply an accepted frame; raise ``MalformedFrame`` if it does not decode."""
+        raise MalformedFrame(f"id 0x{arbitration_id:03X}", "identifier", "a frame this board handles")
+
+    def _handle_broadcast(self, b) -> None:
+        if b.target_node not in (0, self.node_id):
+            return
+        if b.cmd == BROADCAST_PING:
+            self.send_heartbeat()
+        elif b.cmd == BROADCAST_RESET:
+            self.reset(_CAUSE_NAMES[b.reset_cause])
+        elif b.cmd == BROADCAST_STOP_ALL:
+            self.stop_all()
+
+    def stop_all(self) -> None:
+        """HOST_BROADCAST STOP_ALL (subclasses stop their actuators)."""
+
+    def send(self, arbitration_id: int, data: bytes) -> None:
+        """Transmit now (used from the background loop and the receive handler)."""
+        self.can.send(arbitration_id, data)
+
+    def queue(self, arbitration_id: int, data: bytes) -> None:
+        """Queue a frame for the background loop (what an ISR does instead of SPI transfers)."""
+        self._tx_queue.append((arbitration_id, data))
+
+    def _background(self, now_us: int) -> None:
+        if not self.can.interrupt_enabled:
+            self.can.poll()
+        queue, self._tx_queue = self._tx_queue, []
+        for arbitration_id, data in queue:
+            self.send(arbitration_id, data)
+        self.background(now_us)
+
+    def background(self, now_us: int) -> None:
+        """Hook for subclasses: background work after the queued frames are sent."""
+
+    # ------------------------------------------------------------------ frames every board sends
+    @property
+    def uptime_s(self) -> int:
+        """Whole seconds since the last boot."""
+        return (self.scheduler.now_us - self.boot_us) // 1_000_000
+
+    def heartbeat_state(self) -> int:
+        """State byte of the heartbeat (subclasses may report FAULT/STOPPED)."""
+        return self.state
+
+    def send_heartbeat(self) -> None:
+        """Send HEARTBEAT now."""
+        self.send(proto.heartbeat_cob_id(self.node_id),
+                  proto.encode_heartbeat(self.DEVICE_TYPE, self.heartbeat_state(),
+                                        RESET_CAUSES[self.reset_cause],
+                                        min(self.malformed_frames, 0xFFFF),
+                                        min(self.uptime_s, 0xFFFF)))
+
+    def _heartbeat_isr(self, now_us: int) -> None:
+        self.send_heartbeat()
+
+    def crc_error_count(self) -> int:
+        """CRC errors reported in FAULT frames (position readers override)."""
+        return 0
+
+    def send_fault(self, code: int, detail: int = 0) -> None:
+        """Send a FAULT frame with the board's counters."""
+        self.faults_sent += 1
+        self.send(proto.fault_cob_id(self.node_id),
+                  proto.encode_fault(self.DEVICE_TYPE, code, min(self.malformed_frames, 0xFFFF),
+                                    min(self.crc_error_count(), 0xFFFF), detail & 0xFFFF))

@@ -1,0 +1,218 @@
+"""EnDat position reader firmware (PIC18F4480), node 3 = RA, node 4 = DEC (paper §3.2-§3.3).
+
+Every ``read_period_us`` (10 ms) the reader performs one EnDat exchange with the 29-bit RCN 829
+on the axis shaft (:class:`boards.endat.EnDatMaster`), applies the alignment offset (maintenance
+console, §5.2), checks the soft limits "on the telescope extremes" (§3.3) and publishes
+POSITION. A frame failing the CRC is counted (``crc_errors``), not used (the last good position
+is kept and POSITION flag bit2 is set) and reported with a FAULT frame (code 2) — at most one
+such FAULT per second so a broken cable does not flood the bus.
+
+Position convention
+-------------------
+``pos_counts`` = (raw word + offset) mod 2**29; the axis angle is that value read as a signed
+29-bit number times 360°/2**29 (0.00241″ per count), i.e. −180° .. +180°. For RA it is the hour
+angle once the offset is aligned (§5.2), for DEC the declination-axis angle.
+
+Soft limits (assumed defaults, not in the paper)
+------------------------------------------------
+RA: −95° .. +95° hour angle (6 h 20 min either side of the meridian); DEC: −40° .. +110°
+(axis angle). A limit becomes active when the angle reaches it and clears when the angle is
+back inside by ``hysteresis_arcsec`` (10″). LIMIT frames are sent on every change of the flags
+and every 100 ms while any flag is set (architecture.md).
+"""
+
+from __future__ import annotations
+
+from typing import Callable, Optional
+
+import can
+
+from bus import protocol as proto
+from boards.endat import POSITION_BITS, EnDatMaster
+from boards.firmware_base import FAULT_CRC, Board
+from boards.peripherals import Timer
+from bus.scheduler import PRIO_ISR, Scheduler
+
+__all__ = ["PositionReader", "DEFAULT_LIMITS_DEG", "POS_LOW", "POS_HIGH", "POS_CRC", "POS_INVALID"]
+
+COUNTS_PER_REV = 1 << POSITION_BITS
+ARCSEC_PER_COUNT = 1_296_000.0 / COUNTS_PER_REV
+
+#: Assumed soft limits per axis (0 RA, 1 DEC), degrees of axis angle.
+DEFAULT_LIMITS_DEG = {0: (-95.0, 95.0), 1: (-40.0, 110.0)}
+
+POS_LOW, POS_HIGH, POS_CRC, POS_INVALID = 0x01, 0x02, 0x04, 0x08
+LIMIT_LOW, LIMIT_HIGH, LIMIT_INVALID = 0x01, 0x02, 0x04
+CRC_FAULT_MIN_INTERVAL_US = 1_000_000
+
+
+class PositionReader(Board):
+    """PIC18F4480 EnDat position reader firmware.
+
+    Parameters
+    ----------
+    scheduler : Scheduler
+        The simulation clock.
+    bus : can.BusABC
+        This board's CAN bus handle.
+    node_id : int
+        3 (RA) or 4 (DEC).
+    read_position_word : callable
+        Port: the encoder's raw 29-bit position word (counts, 0 .. 2**29 − 1).
+    axis : int, optional
+        0 RA, 1 DEC (default node_id − 3).
+    read_period_us : int
+        EnDat read and POSITION period, µs (10 000, assumed: matches the 10 ms samples of §3.4).
+    low_limit_deg, high_limit_deg : float, optional
+        Soft limits, degrees of axis angle (defaults :data:`DEFAULT_LIMITS_DEG`).
+    hysteresis_arcsec : float
+        A limit clears this far inside, arcsec.
+    offset_counts : int
+        Alignment offset added to the raw word, counts.
+    limit_repeat_us : int
+        LIMIT repeat period while active, µs (100 000).
+    name : str, optional
+        Owner name (default "ra-reader"/"dec-reader").
+    """
+
+    DEVICE_TYPE = int(proto.DeviceType.POSITION_READER)
+    KIND = "reader"
+
+    def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int = 3, *,
+                 read_position_word: Callable[[], int], axis: Optional[int] = None,
+                 read_period_us: int = 10_000, low_limit_deg: Optional[float] = None,
+                 high_limit_deg: Optional[float] = None, hysteresis_arcsec: float = 10.0,
+                 offset_counts: int = 0, limit_repeat_us: int = 100_000,
+                 name: Optional[str] = None) -> None:
+        self.axis = (node_id - 3) if axis is None else int(axis)
+        default_name = ("ra-reader", "dec-reader")[self.axis] if self.axis in (0, 1) else None
+        super().__init__(scheduler, bus, node_id, name=name or default_name,
+                         background_period_us=read_period_us)
+        lo, hi = DEFAULT_LIMITS_DEG.get(self.axis, (-180.0, 180.0))
+        self.low_limit_deg = lo if low_limit_deg is None else float(low_limit_deg)
+        self.high_limit_deg = hi if high_limit_deg is None else float(high_limit_deg)
+        if not self.low_limit_deg < self.high_limit_deg:
+            raise ValueError("low_limit_deg must be below high_limit_deg")
+        self.hysteresis_arcsec = float(hysteresis_arcsec)
+        self.read_period_us = int(read_period_us)
+        self.limit_repeat_us = int(limit_repeat_us)
+        self.offset_counts = int(offset_counts) % COUNTS_PER_REV
+        self.endat = EnDatMaster(read_position_word)
+        self.timer = self.add_timer(Timer(scheduler, self.read_period_us, self.isr_read,
+                                          priority=PRIO_ISR, owner=f"{self.name}/isr"))
+        self._init_reader_state()
+
+    def _peripherals(self) -> list:
+        return [self.endat]
+
+    def _init_state(self) -> None:
+        super()._init_state()
+        if hasattr(self, "endat"):
+            self._init_reader_state()
+
+    def _init_reader_state(self) -> None:
+        self.pos_counts = 0
+        self.have_position = False
+        self.last_crc_error = False
+        self.alarm = False
+        self.limit_flags = 0
+        self._limit_sent_flags = 0
+        self._limit_sent_us: Optional[int] = None
+        self._crc_fault_us: Optional[int] = None
+        self._send_limit = False
+
+    # ------------------------------------------------------------------ API
+    @property
+    def crc_errors(self) -> int:
+        """EnDat frames rejected since reset."""
+        return self.endat.crc_errors
+
+    def crc_error_count(self) -> int:
+        return self.endat.crc_errors
+
+    def flip_bit(self, n: int) -> None:
+        """Fault injection: corrupt bit ``n`` of the next EnDat frame (see boards.endat)."""
+        self.endat.flip_bit(n)
+
+    def set_offset_counts(self, counts: int) -> None:
+        """Alignment offset (maintenance console §5.2), counts added to the raw word."""
+        self.offset_counts = int(counts) % COUNTS_PER_REV
+
+    def set_offset_deg(self, degrees: float) -> None:
+        """Alignment offset in degrees."""
+        self.set_offset_counts(int(round(degrees * 3600.0 / ARCSEC_PER_COUNT)))
+
+    @property
+    def angle_deg(self) -> float:
+        """Axis angle from the last good position, degrees (−180 .. 180)."""
+        c = self.pos_counts
+        if c >= COUNTS_PER_REV // 2:
+            c -= COUNTS_PER_REV
+        return c * ARCSEC_PER_COUNT / 3600.0
+
+    def position_flags(self) -> int:
+        """POSITION flags byte."""
+        f = self.limit_flags & (POS_LOW | POS_HIGH)
+        if self.last_crc_error:
+            f |= POS_CRC
+        if not self.have_position or self.alarm:
+            f |= POS_INVALID
+        return f
+
+    def limit_frame_flags(self) -> int:
+        """LIMIT flags byte."""
+        f = self.limit_flags & (LIMIT_LOW | LIMIT_HIGH)
+        if not self.have_position or self.alarm:
+            f |= LIMIT_INVALID
+        return f
+
+    # ------------------------------------------------------------------ ISR (10 ms)
+    def isr_read(self, now_us: int) -> None:
+        """Timer ISR: one EnDat exchange, limits, queue POSITION (and LIMIT when due)."""
+        r = self.endat.read()
+        self.last_crc_error = not r.crc_ok
+        if r.crc_ok:
+            self.alarm = bool(r.f1 or r.f2)
+            if not self.alarm:
+                self.pos_counts = (r.position + self.offset_counts) % COUNTS_PER_REV
+                self.have_position = True
+                self._update_limits()
+        elif self._crc_fault_us is None or now_us - self._crc_fault_us >= CRC_FAULT_MIN_INTERVAL_US:
+            self._crc_fault_us = now_us
+            self.queue(proto.fault_cob_id(self.node_id), None)
+        self.queue(proto.position_cob_id(self.node_id),
+                   proto.encode_position(self.position_flags(), min(self.crc_errors, 0xFFFF),
+                                        self.pos_counts))
+        flags = self.limit_frame_flags()
+        due = flags != self._limit_sent_flags or (
+            flags and (self._limit_sent_us is None
+                       or now_us - self._limit_sent_us >= self.limit_repeat_us))
+        if due:
+            self._limit_sent_flags = flags
+            self._limit_sent_us = now_us
+            self.queue(proto.limit_cob_id(self.node_id),
+                       proto.encode_limit(self.axis, flags, self.pos_counts))
+
+    def _update_limits(self) -> None:
+        a = self.angle_deg
+        h = self.hysteresis_arcsec / 3600.0
+        f = self.limit_flags
+        if a <= self.low_limit_deg:
+            f |= LIMIT_LOW
+        elif a > self.low_limit_deg + h:
+            f &= ~LIMIT_LOW
+        if a >= self.high_limit_deg:
+            f |= LIMIT_HIGH
+        elif a < self.high_limit_deg - h:
+            f &= ~LIMIT_HIGH
+        self.limit_flags = f
+
+    def _background(self, now_us: int) -> None:
+        queue = []
+        for cob, data in self._tx_queue:
+            if data is None:
+                self.send_fault(FAULT_CRC, detail=self.endat.reads & 0xFFFF)
+            else:
+                queue.append((cob, data))
+        self._tx_queue = queue
+        super()._background(now_us)

@@ -1,0 +1,1057 @@
+"""The schmidt-fil CAN frame protocol (paper §3.4): identifiers, enums and fast codecs.
+
+Every frame is a CAN 2.0A data frame: 11-bit identifier, DLC 8, byte 0 = the **sender's**
+device type (the paper: "the data word size per board is 8 bytes, first byte representing the
+device type"). Multi-byte fields are little-endian. The COB-ID is a function code plus the
+sender's node id (commands: plus the *addressed* node id); use the ``*_cob_id`` functions, never
+inline arithmetic.
+
+This module never imports python-can: codecs are separate from transport. ``bus/schmidt.dbc``
+describes the same frames for cantools (tests check both agree).
+
+Rules
+-----
+Decoders (``decode_*``) raise :class:`bus.errors.MalformedFrame` naming frame, field and the
+expectation when
+
+* the length is not 8 bytes (``field="dlc"``),
+* byte 0 is not the expected device type (``field="device_type"``),
+* an enumerated field (command, mode, state, cause, axis, direction, fault code) is out of range,
+* a narrow value in a wider slot exceeds its width (29-bit positions, 10-bit ADC counts).
+
+Reserved bytes ("zero" in the table) are written as zero and ignored on receive; undefined flag
+bits are ignored on receive.
+
+Encoders (``encode_*``) take plain ``int`` s (``IntEnum`` members are ints) and treat values by
+field kind:
+
+* ``enum`` and ``flags`` fields (and ids): an invalid value raises
+  :class:`bus.errors.EncodeError` (a bug in the sender, not line noise);
+* ``wrap`` fields (counters that wrap in hardware: ``qei_counts`` u24, ``pos_counts`` 29-bit,
+  ``seq`` u8, ``uptime_s`` u16) are reduced modulo 2**width;
+* ``clamp`` fields (quantities and error counters: ``u_q15`` ±32767, ``qei_delta`` i16, ADC
+  counts 0..1023, ``value``/``pos_halfsteps`` i32, u16 error counters) saturate at their limits;
+* a non-integer (e.g. float) value raises :class:`bus.errors.EncodeError`.
+
+:data:`FRAMES` describes every frame (fields, ranges, kinds, DBC names and scaling); the DBC,
+the tests' Hypothesis strategies and ``docs/protocol.md`` are derived from or checked against it.
+"""
+
+from __future__ import annotations
+
+import struct
+from enum import IntEnum, IntFlag
+from functools import lru_cache
+from pathlib import Path
+from typing import Callable, NamedTuple
+
+from bus.errors import EncodeError, MalformedFrame
+
+# ------------------------------------------------------------------------------------------------
+# Nodes, device types, function codes
+# ------------------------------------------------------------------------------------------------
+
+
+class NodeId(IntEnum):
+    """CAN node ids of the boards (architecture table)."""
+
+    RA_AXIS = 1        #: RA axis controller, dsPIC30F3011
+    DEC_AXIS = 2       #: DEC axis controller
+    RA_READER = 3      #: RA EnDat position reader, PIC18F4480
+    DEC_READER = 4     #: DEC EnDat position reader
+    FOCUS = 5          #: focus controller, PIC18F4431
+    HOST = 0x10        #: USB-to-CAN host node, PIC18F4550
+
+
+NODE_RA_AXIS = NodeId.RA_AXIS
+NODE_DEC_AXIS = NodeId.DEC_AXIS
+NODE_RA_READER = NodeId.RA_READER
+NODE_DEC_READER = NodeId.DEC_READER
+NODE_FOCUS = NodeId.FOCUS
+NODE_HOST = NodeId.HOST
+
+AXIS_NODES = (NodeId.RA_AXIS, NodeId.DEC_AXIS)
+READER_NODES = (NodeId.RA_READER, NodeId.DEC_READER)
+BOARD_NODES = (NodeId.RA_AXIS, NodeId.DEC_AXIS, NodeId.RA_READER, NodeId.DEC_READER, NodeId.FOCUS)
+ALL_NODES = BOARD_NODES + (NodeId.HOST,)
+
+
+class DeviceType(IntEnum):
+    """Byte 0 of every frame: the sender's device type."""
+
+    AXIS_CONTROLLER = 0x01
+    POSITION_READER = 0x02
+    FOCUS_CONTROLLER = 0x03
+    HOST = 0x10
+
+
+#: Device type of each node.
+DEVICE_TYPE_OF_NODE: dict[int, DeviceType] = {
+    NodeId.RA_AXIS: DeviceType.AXIS_CONTROLLER,
+    NodeId.DEC_AXIS: DeviceType.AXIS_CONTROLLER,
+    NodeId.RA_READER: DeviceType.POSITION_READER,
+    NodeId.DEC_READER: DeviceType.POSITION_READER,
+    NodeId.FOCUS: DeviceType.FOCUS_CONTROLLER,
+    NodeId.HOST: DeviceType.HOST,
+}
+
+#: Short node names used in frame names (``AXIS_STATUS_RA``, ``FAULT_RA_READER``) and the DBC.
+NODE_NAME: dict[int, str] = {
+    NodeId.RA_AXIS: "RA_AXIS", NodeId.DEC_AXIS: "DEC_AXIS", NodeId.RA_READER: "RA_READER",
+    NodeId.DEC_READER: "DEC_READER", NodeId.FOCUS: "FOCUS", NodeId.HOST: "HOST",
+}
+
+FC_HOST_BROADCAST = 0x000
+FC_LIMIT = 0x070
+FC_FAULT = 0x080
+FC_STATUS = 0x180       #: AXIS_STATUS (axes), POSITION (readers), FOCUS_STATUS (focus)
+FC_COMMAND = 0x200      #: AXIS_COMMAND (to axes), FOCUS_COMMAND (to focus)
+FC_AUX = 0x280
+FC_HEARTBEAT = 0x700
+
+#: Nominal periods, µs (event-driven frames are absent).
+AXIS_STATUS_PERIOD_US = 10_000
+AXIS_AUX_PERIOD_US = 10_000
+POSITION_PERIOD_US = 10_000
+FOCUS_STATUS_PERIOD_US = 250_000
+HEARTBEAT_PERIOD_US = 1_000_000
+LIMIT_REPEAT_US = 100_000
+
+
+# ------------------------------------------------------------------------------------------------
+# Enums and flags
+# ------------------------------------------------------------------------------------------------
+
+
+class BroadcastCommand(IntEnum):
+    """``HOST_BROADCAST`` byte 1."""
+
+    PING = 1
+    RESET = 2
+    STOP_ALL = 3
+
+
+class ResetCause(IntEnum):
+    """Reset cause (``HEARTBEAT`` byte 2, ``HOST_BROADCAST`` byte 3)."""
+
+    POWER_ON = 0
+    WATCHDOG = 1
+    SOFTWARE = 2
+
+
+class Axis(IntEnum):
+    """``LIMIT`` byte 1."""
+
+    RA = 0
+    DEC = 1
+
+
+class FaultCode(IntEnum):
+    """``FAULT`` byte 1."""
+
+    MALFORMED_FRAME = 1
+    ENDAT_CRC = 2
+    OVER_CURRENT = 3
+    LIMIT_STOP = 4
+    WATCHDOG = 5
+
+
+class AxisMode(IntEnum):
+    """``AXIS_STATUS`` byte 1: the axis controller's mode."""
+
+    STOP = 0
+    SLEW = 1
+    SET = 2
+    GUIDE = 3
+    FINE = 4
+    TRACK = 5
+    VELOCITY = 6
+    OPEN_LOOP = 7
+    LIMIT_STOP = 8
+
+
+class AxisCommand(IntEnum):
+    """``AXIS_COMMAND`` byte 1."""
+
+    STOP = 0
+    SLEW = 1
+    SET = 2
+    GUIDE = 3
+    FINE = 4
+    TRACK = 5
+    VELOCITY = 6     #: value = rate, milli-arcsec/s
+    OPEN_LOOP = 7    #: value = duty, Q15 (±32767 = ±100 %)
+    SET_KP = 8       #: value = gain × 1e6, gain in duty/(arcsec/s)
+    SET_KI = 9       #: value = gain × 1e6, same scaling as SET_KP
+
+
+class FocusCommand(IntEnum):
+    """``FOCUS_COMMAND`` byte 1."""
+
+    STOP = 0
+    STEP = 1
+    MOVE_TO = 2
+    HOLD = 3   #: motor power off, regenerative holding
+    FREE = 4   #: control power off
+
+
+class NodeState(IntEnum):
+    """``HEARTBEAT`` byte 1."""
+
+    BOOT = 0
+    OPERATIONAL = 1
+    FAULT = 2
+    STOPPED = 3
+
+
+class LimitFlags(IntFlag):
+    """``LIMIT`` byte 2."""
+
+    LOW_SOFT_LIMIT = 1
+    HIGH_SOFT_LIMIT = 2
+    POSITION_INVALID = 4
+
+
+class AxisStatusFlags(IntFlag):
+    """``AXIS_STATUS`` byte 2."""
+
+    LIMIT_STOP = 1
+    ANTI_WINDUP = 2
+    OVER_CURRENT = 4
+    FAULT = 8
+
+
+class PositionFlags(IntFlag):
+    """``POSITION`` byte 1."""
+
+    LOW_LIMIT = 1
+    HIGH_LIMIT = 2
+    CRC_ERROR = 4
+    INVALID = 8
+
+
+class FocusFlags(IntFlag):
+    """``FOCUS_STATUS`` byte 1."""
+
+    MOVING = 1
+    HOLDING = 2
+    INDEX_SEEN = 4
+    POWER_OFF = 8
+
+
+#: Absolute encoder resolution: positions are 29-bit, 2**29 counts per revolution.
+POS_COUNTS_PER_REV = 1 << 29
+Q15_FULL_SCALE = 32767
+ADC_MAX = 1023
+
+# ------------------------------------------------------------------------------------------------
+# COB-IDs
+# ------------------------------------------------------------------------------------------------
+
+
+def _check_node(kind: str, node: int, allowed: tuple) -> int:
+    if node not in allowed:
+        from bus.errors import ConfigurationError
+        raise ConfigurationError(
+            f"{kind} frames exist for nodes {[int(n) for n in allowed]}, not node {node!r}")
+    return int(node)
+
+
+def host_broadcast_cob_id() -> int:
+    """COB-ID of ``HOST_BROADCAST`` (0x000, highest priority)."""
+    return FC_HOST_BROADCAST
+
+
+def limit_cob_id(node: int) -> int:
+    """COB-ID of ``LIMIT`` sent by reader ``node`` (3 or 4): 0x070 + node."""
+    return FC_LIMIT + _check_node("LIMIT", node, READER_NODES)
+
+
+def fault_cob_id(node: int) -> int:
+    """COB-ID of ``FAULT`` sent by board ``node`` (1..5): 0x080 + node."""
+    return FC_FAULT + _check_node("FAULT", node, BOARD_NODES)
+
+
+def axis_status_cob_id(node: int) -> int:
+    """COB-ID of ``AXIS_STATUS`` sent by axis controller ``node`` (1 or 2): 0x180 + node."""
+    return FC_STATUS + _check_node("AXIS_STATUS", node, AXIS_NODES)
+
+
+def position_cob_id(node: int) -> int:
+    """COB-ID of ``POSITION`` sent by reader ``node`` (3 or 4): 0x180 + node."""
+    return FC_STATUS + _check_node("POSITION", node, READER_NODES)
+
+
+def focus_status_cob_id(node: int = NodeId.FOCUS) -> int:
+    """COB-ID of ``FOCUS_STATUS`` (0x185)."""
+    return FC_STATUS + _check_node("FOCUS_STATUS", node, (NodeId.FOCUS,))
+
+
+def axis_aux_cob_id(node: int) -> int:
+    """COB-ID of ``AXIS_AUX`` sent by axis controller ``node`` (1 or 2): 0x280 + node."""
+    return FC_AUX + _check_node("AXIS_AUX", node, AXIS_NODES)
+
+
+def axis_command_cob_id(node: int) -> int:
+    """COB-ID of ``AXIS_COMMAND`` addressed to axis controller ``node`` (1 or 2): 0x200 + node."""
+    return FC_COMMAND + _check_node("AXIS_COMMAND", node, AXIS_NODES)
+
+
+def focus_command_cob_id(node: int = NodeId.FOCUS) -> int:
+    """COB-ID of ``FOCUS_COMMAND`` (0x205)."""
+    return FC_COMMAND + _check_node("FOCUS_COMMAND", node, (NodeId.FOCUS,))
+
+
+def heartbeat_cob_id(node: int) -> int:
+    """COB-ID of ``HEARTBEAT`` sent by ``node`` (1..5 or the host 0x10): 0x700 + node."""
+    return FC_HEARTBEAT + _check_node("HEARTBEAT", node, ALL_NODES)
+
+
+# ------------------------------------------------------------------------------------------------
+# Decoded frames
+# ------------------------------------------------------------------------------------------------
+
+
+class HostBroadcast(NamedTuple):
+    cmd: BroadcastCommand
+    target_node: int        #: 0 = all nodes
+    reset_cause: ResetCause
+
+
+class Limit(NamedTuple):
+    axis: Axis
+    flags: int              #: LimitFlags bits
+    pos_counts: int         #: 0 .. 2**29-1
+
+
+class Fault(NamedTuple):
+    device_type: DeviceType
+    code: FaultCode
+    malformed_frames: int
+    crc_errors: int
+    detail: int
+
+
+class AxisStatus(NamedTuple):
+    mode: AxisMode
+    flags: int              #: AxisStatusFlags bits
+    u_q15: int              #: control effort, ±32767 = ±100 % duty
+    qei_counts: int         #: low 24 bits of the cumulative QEI count (wraps)
+
+
+class Position(NamedTuple):
+    flags: int              #: PositionFlags bits
+    crc_errors: int
+    pos_counts: int         #: 0 .. 2**29-1, 2**29 per revolution
+
+
+class FocusStatus(NamedTuple):
+    flags: int              #: FocusFlags bits
+    lvdt_adc: int           #: 10-bit ADC counts
+    pos_halfsteps: int
+
+
+class AxisAux(NamedTuple):
+    seq: int                #: u8, wraps
+    adc_a: int              #: 10-bit shunt ADC counts, motor A (positive direction)
+    adc_b: int              #: 10-bit shunt ADC counts, motor B
+    qei_delta: int          #: counts in the last 5 ms tick
+
+
+class AxisCommandFrame(NamedTuple):
+    cmd: AxisCommand
+    direction: int          #: +1, -1 (0 allowed where direction is meaningless)
+    value: int
+
+
+class FocusCommandFrame(NamedTuple):
+    cmd: FocusCommand
+    value: int              #: half-steps
+
+
+class Heartbeat(NamedTuple):
+    device_type: DeviceType
+    state: NodeState
+    reset_cause: ResetCause
+    malformed_frames: int
+    uptime_s: int           #: wraps at 65536 s
+
+
+# ------------------------------------------------------------------------------------------------
+# Codecs (one struct per frame; hand-written for speed, checked against the DBC by tests)
+# ------------------------------------------------------------------------------------------------
+
+_DT_AXIS = DeviceType.AXIS_CONTROLLER
+_DT_READER = DeviceType.POSITION_READER
+_DT_FOCUS = DeviceType.FOCUS_CONTROLLER
+_DT_HOST = DeviceType.HOST
+_DT_BY_VALUE = {int(d): d for d in DeviceType}
+
+
+def _table(enum_cls) -> tuple:
+    """Tuple indexed by value (None for gaps) for fast int -> member lookup."""
+    top = max(enum_cls)
+    return tuple(enum_cls(i) if i in enum_cls._value2member_map_ else None
+                 for i in range(top + 1))
+
+
+_BCAST = _table(BroadcastCommand)
+_CAUSE = _table(ResetCause)
+_AXIS = _table(Axis)
+_FAULT = _table(FaultCode)
+_MODE = _table(AxisMode)
+_ACMD = _table(AxisCommand)
+_FCMD = _table(FocusCommand)
+_STATE = _table(NodeState)
+
+
+def _enum_or_raise(table: tuple, value: int, frame: str, field: str, exc: type) -> object:
+    member = table[value] if 0 <= value < len(table) else None
+    if member is None:
+        valid = [int(m) for m in table if m is not None]
+        enum_name = type(next(m for m in table if m is not None)).__name__
+        raise exc(frame, field, f"{enum_name} in {valid}", value)
+    return member
+
+
+def _check_len(data, frame: str) -> None:
+    if len(data) != 8:
+        raise MalformedFrame(frame, "dlc", "8 bytes", len(data))
+
+
+def _bad_type(frame: str, expected, got: int) -> MalformedFrame:
+    return MalformedFrame(frame, "device_type", f"{expected!r} (0x{int(expected):02X})", got)
+
+
+def _not_int(frame: str, exc: Exception) -> EncodeError:
+    return EncodeError(frame, "*", f"int values for every field ({exc})")
+
+
+def _flags(frame: str, field: str, value: int, mask: int) -> int:
+    if value & ~mask or value < 0:
+        raise EncodeError(frame, field, f"flag bits within 0x{mask:02X}", value)
+    return value
+
+
+def _clamp(v: int, lo: int, hi: int) -> int:
+    return lo if v < lo else (hi if v > hi else v)
+
+
+I32_MIN, I32_MAX = -(1 << 31), (1 << 31) - 1
+
+# -- HOST_BROADCAST -------------------------------------------------------------------------------
+_S_BCAST = struct.Struct("<BBBB4x")
+
+
+def encode_host_broadcast(cmd: int, target_node: int = 0, reset_cause: int = ResetCause.SOFTWARE) -> bytes:
+    """Encode ``HOST_BROADCAST`` (0x000): cmd, target node (0 = all), reset cause."""
+    f = "HOST_BROADCAST"
+    _enum_or_raise(_BCAST, cmd, f, "cmd", EncodeError)
+    _enum_or_raise(_CAUSE, reset_cause, f, "reset_cause", EncodeError)
+    if not 0 <= target_node <= 255:
+        raise EncodeError(f, "target_node", "0..255 (0 = all)", target_node)
+    try:
+        return _S_BCAST.pack(_DT_HOST, cmd, target_node, reset_cause)
+    except (struct.error, TypeError) as exc:
+        raise _not_int(f, exc) from None
+
+
+def decode_host_broadcast(data) -> HostBroadcast:
+    """Decode ``HOST_BROADCAST``; raises MalformedFrame."""
+    _check_len(data, "HOST_BROADCAST")
+    dt, cmd, target, cause = _S_BCAST.unpack(data)
+    if dt != _DT_HOST:
+        raise _bad_type("HOST_BROADCAST", _DT_HOST, dt)
+    return HostBroadcast(_enum_or_raise(_BCAST, cmd, "HOST_BROADCAST", "cmd", MalformedFrame),
+                         target,
+                         _enum_or_raise(_CAUSE, cause, "HOST_BROADCAST", "reset_cause", MalformedFrame))
+
+
+# -- LIMIT ----------------------------------------------------------------------------------------
+_S_LIMIT = struct.Struct("<BBBxI")
+_POS_MASK = (1 << 29) - 1
+
+
+def encode_limit(axis: int, flags: int, pos_counts: int) -> bytes:
+    """Encode ``LIMIT`` (0x070 + reader node): axis, LimitFlags, 29-bit position (wraps)."""
+    f = "LIMIT"
+    _enum_or_raise(_AXIS, axis, f, "axis", EncodeError)
+    try:
+        _flags(f, "flags", flags, 0x07)
+        return _S_LIMIT.pack(_DT_READER, axis, flags, pos_counts & _POS_MASK)
+    except (struct.error, TypeError) as exc:
+        raise _not_int(f, exc) from None
+
+
+def decode_limit(data) -> Limit:
+    """Decode ``LIMIT``; raises MalformedFrame."""
+    _check_len(data, "LIMIT")
+    dt, axis, flags, pos = _S_LIMIT.unpack(data)
+    if dt != _DT_READER:
+        raise _bad_type("LIMIT", _DT_READER, dt)
+    if pos > _POS_MASK:
+        raise MalformedFrame("LIMIT", "pos_counts", "29-bit value < 2**29", pos)
+    return Limit(_enum_or_raise(_AXIS, axis, "LIMIT", "axis", MalformedFrame), flags, pos)
+
+
+# -- FAULT ----------------------------------------------------------------------------------------
+_S_FAULT = struct.Struct("<BBHHH")
+
+
+def encode_fault(device_type: int, code: int, malformed_frames: int = 0, crc_errors: int = 0,
+                 detail: int = 0) -> bytes:
+    """Encode ``FAULT`` (0x080 + node): sender's device type, FaultCode, u16 counters (saturate)."""
+    f = "FAULT"
+    if device_type not in _DT_BY_VALUE or device_type == _DT_HOST:
+        raise EncodeError(f, "device_type", "a board DeviceType (1, 2, 3)", device_type)
+    _enum_or_raise(_FAULT, code, f, "code", EncodeError)
+    try:
+        return _S_FAULT.pack(device_type, code, _clamp(malformed_frames, 0, 0xFFFF),
+                             _clamp(crc_errors, 0, 0xFFFF), _clamp(detail, 0, 0xFFFF))
+    except (struct.error, TypeError) as exc:
+        raise _not_int(f, exc) from None
+
+
+def decode_fault(data) -> Fault:
+    """Decode ``FAULT``; raises MalformedFrame."""
+    _check_len(data, "FAULT")
+    dt, code, mal, crc, detail = _S_FAULT.unpack(data)
+    dtype = _DT_BY_VALUE.get(dt)
+    if dtype is None or dtype == _DT_HOST:
+        raise MalformedFrame("FAULT", "device_type", "a board DeviceType (1, 2, 3)", dt)
+    return Fault(dtype, _enum_or_raise(_FAULT, code, "FAULT", "code", MalformedFrame), mal, crc, detail)
+
+
+# -- AXIS_STATUS ----------------------------------------------------------------------------------
+_S_AXIS_STATUS = struct.Struct("<BBBhHB")
+
+
+def encode_axis_status(mode: int, flags: int, u_q15: int, qei_counts: int) -> bytes:
+    """Encode ``AXIS_STATUS`` (0x180 + axis node).
+
+    Parameters
+    ----------
+    mode : int
+        :class:`AxisMode`.
+    flags : int
+        :class:`AxisStatusFlags` bits (0..15).
+    u_q15 : int
+        Control effort, Q15 duty; saturated to ±32767.
+    qei_counts : int
+        Cumulative QEI count; its low 24 bits are sent (wraps).
+    """
+    f = "AXIS_STATUS"
+    _enum_or_raise(_MODE, mode, f, "mode", EncodeError)
+    try:
+        _flags(f, "flags", flags, 0x0F)
+        q = qei_counts & 0xFFFFFF
+        return _S_AXIS_STATUS.pack(_DT_AXIS, mode, flags,
+                                   -32767 if u_q15 < -32767 else (32767 if u_q15 > 32767 else u_q15),
+                                   q & 0xFFFF, q >> 16)
+    except (struct.error, TypeError) as exc:
+        raise _not_int(f, exc) from None
+
+
+def decode_axis_status(data) -> AxisStatus:
+    """Decode ``AXIS_STATUS``; raises MalformedFrame."""
+    if len(data) != 8:
+        raise MalformedFrame("AXIS_STATUS", "dlc", "8 bytes", len(data))
+    dt, mode, flags, u, lo, hi = _S_AXIS_STATUS.unpack(data)
+    if dt != 1:
+        raise _bad_type("AXIS_STATUS", _DT_AXIS, dt)
+    if mode > 8:
+        raise MalformedFrame("AXIS_STATUS", "mode", "AxisMode in 0..8", mode)
+    return AxisStatus(_MODE[mode], flags, u, lo | (hi << 16))
+
+
+# -- POSITION -------------------------------------------------------------------------------------
+_S_POSITION = struct.Struct("<BBHI")
+
+
+def encode_position(flags: int, crc_errors: int, pos_counts: int) -> bytes:
+    """Encode ``POSITION`` (0x180 + reader node): PositionFlags, u16 crc_errors (saturates),
+    29-bit absolute position (wraps)."""
+    f = "POSITION"
+    try:
+        _flags(f, "flags", flags, 0x0F)
+        return _S_POSITION.pack(_DT_READER, flags, _clamp(crc_errors, 0, 0xFFFF), pos_counts & _POS_MASK)
+    except (struct.error, TypeError) as exc:
+        raise _not_int(f, exc) from None
+
+
+def decode_position(data) -> Position:
+    """Decode ``POSITION``; raises MalformedFrame."""
+    if len(data) != 8:
+        raise MalformedFrame("POSITION", "dlc", "8 bytes", len(data))
+    dt, flags, crc, pos = _S_POSITION.unpack(data)
+    if dt != 2:
+        raise _bad_type("POSITION", _DT_READER, dt)
+    if pos > _POS_MASK:
+        raise MalformedFrame("POSITION", "pos_counts", "29-bit value < 2**29", pos)
+    return Position(flags, crc, pos)
+
+
+# -- FOCUS_STATUS ---------------------------------------------------------------------------------
+_S_FOCUS_STATUS = struct.Struct("<BBHi")
+
+
+def encode_focus_status(flags: int, lvdt_adc: int, pos_halfsteps: int) -> bytes:
+    """Encode ``FOCUS_STATUS`` (0x185): FocusFlags, LVDT ADC 0..1023 and half-steps i32 (saturate)."""
+    f = "FOCUS_STATUS"
+    try:
+        _flags(f, "flags", flags, 0x0F)
+        return _S_FOCUS_STATUS.pack(_DT_FOCUS, flags, _clamp(lvdt_adc, 0, ADC_MAX),
+                                    _clamp(pos_halfsteps, I32_MIN, I32_MAX))
+    except (struct.error, TypeError) as exc:
+        raise _not_int(f, exc) from None
+
+
+def decode_focus_status(data) -> FocusStatus:
+    """Decode ``FOCUS_STATUS``; raises MalformedFrame."""
+    _check_len(data, "FOCUS_STATUS")
+    dt, flags, lvdt, pos = _S_FOCUS_STATUS.unpack(data)
+    if dt != _DT_FOCUS:
+        raise _bad_type("FOCUS_STATUS", _DT_FOCUS, dt)
+    if lvdt > ADC_MAX:
+        raise MalformedFrame("FOCUS_STATUS", "lvdt_adc", "10-bit value 0..1023", lvdt)
+    return FocusStatus(flags, lvdt, pos)
+
+
+# -- AXIS_AUX -------------------------------------------------------------------------------------
+_S_AXIS_AUX = struct.Struct("<BBHHh")
+
+
+def encode_axis_aux(seq: int, adc_a: int, adc_b: int, qei_delta: int) -> bytes:
+    """Encode ``AXIS_AUX`` (0x280 + axis node): seq u8 (wraps), shunt ADC counts 0..1023
+    (saturate), qei_delta i16 (saturates)."""
+    f = "AXIS_AUX"
+    try:
+        return _S_AXIS_AUX.pack(_DT_AXIS, seq & 0xFF,
+                                0 if adc_a < 0 else (ADC_MAX if adc_a > ADC_MAX else adc_a),
+                                0 if adc_b < 0 else (ADC_MAX if adc_b > ADC_MAX else adc_b),
+                                -32768 if qei_delta < -32768 else (32767 if qei_delta > 32767 else qei_delta))
+    except (struct.error, TypeError) as exc:
+        raise _not_int(f, exc) from None
+
+
+def decode_axis_aux(data) -> AxisAux:
+    """Decode ``AXIS_AUX``; raises MalformedFrame."""
+    if len(data) != 8:
+        raise MalformedFrame("AXIS_AUX", "dlc", "8 bytes", len(data))
+    dt, seq, a, b, d = _S_AXIS_AUX.unpack(data)
+    if dt != 1:
+        raise _bad_type("AXIS_AUX", _DT_AXIS, dt)
+    if a > ADC_MAX:
+        raise MalformedFrame("AXIS_AUX", "adc_a", "10-bit value 0..1023", a)
+    if b > ADC_MAX:
+        raise MalformedFrame("AXIS_AUX", "adc_b", "10-bit value 0..1023", b)
+    return AxisAux(seq, a, b, d)
+
+
+# -- AXIS_COMMAND ---------------------------------------------------------------------------------
+_S_AXIS_COMMAND = struct.Struct("<BBbxi")
+
+
+def encode_axis_command(cmd: int, direction: int = 0, value: int = 0) -> bytes:
+    """Encode ``AXIS_COMMAND`` (0x200 + axis node).
+
+    Parameters
+    ----------
+    cmd : int
+        :class:`AxisCommand`.
+    direction : int
+        +1 or -1 (0 where meaningless); anything else raises EncodeError.
+    value : int
+        i32, saturated. VELOCITY: milli-arcsec/s; OPEN_LOOP: duty Q15; SET_KP/SET_KI: gain × 1e6
+        with the gain in duty/(arcsec/s).
+    """
+    f = "AXIS_COMMAND"
+    _enum_or_raise(_ACMD, cmd, f, "cmd", EncodeError)
+    if direction not in (-1, 0, 1):
+        raise EncodeError(f, "direction", "-1, 0 or +1", direction)
+    try:
+        return _S_AXIS_COMMAND.pack(_DT_HOST, cmd, direction, _clamp(value, I32_MIN, I32_MAX))
+    except (struct.error, TypeError) as exc:
+        raise _not_int(f, exc) from None
+
+
+def decode_axis_command(data) -> AxisCommandFrame:
+    """Decode ``AXIS_COMMAND``; raises MalformedFrame."""
+    _check_len(data, "AXIS_COMMAND")
+    dt, cmd, direction, value = _S_AXIS_COMMAND.unpack(data)
+    if dt != _DT_HOST:
+        raise _bad_type("AXIS_COMMAND", _DT_HOST, dt)
+    if direction not in (-1, 0, 1):
+        raise MalformedFrame("AXIS_COMMAND", "direction", "-1, 0 or +1", direction)
+    return AxisCommandFrame(_enum_or_raise(_ACMD, cmd, "AXIS_COMMAND", "cmd", MalformedFrame),
+                            direction, value)
+
+
+# -- FOCUS_COMMAND --------------------------------------------------------------------------------
+_S_FOCUS_COMMAND = struct.Struct("<BB2xi")
+
+
+def encode_focus_command(cmd: int, value: int = 0) -> bytes:
+    """Encode ``FOCUS_COMMAND`` (0x205): FocusCommand, value in half-steps (i32, saturates)."""
+    f = "FOCUS_COMMAND"
+    _enum_or_raise(_FCMD, cmd, f, "cmd", EncodeError)
+    try:
+        return _S_FOCUS_COMMAND.pack(_DT_HOST, cmd, _clamp(value, I32_MIN, I32_MAX))
+    except (struct.error, TypeError) as exc:
+        raise _not_int(f, exc) from None
+
+
+def decode_focus_command(data) -> FocusCommandFrame:
+    """Decode ``FOCUS_COMMAND``; raises MalformedFrame."""
+    _check_len(data, "FOCUS_COMMAND")
+    dt, cmd, value = _S_FOCUS_COMMAND.unpack(data)
+    if dt != _DT_HOST:
+        raise _bad_type("FOCUS_COMMAND", _DT_HOST, dt)
+    return FocusCommandFrame(_enum_or_raise(_FCMD, cmd, "FOCUS_COMMAND", "cmd", MalformedFrame), value)
+
+
+# -- HEARTBEAT ------------------------------------------------------------------------------------
+_S_HEARTBEAT = struct.Struct("<BBBxHH")
+
+
+def encode_heartbeat(device_type: int, state: int, reset_cause: int, malformed_frames: int = 0,
+                     uptime_s: int = 0) -> bytes:
+    """Encode ``HEARTBEAT`` (0x700 + node): sender's DeviceType, NodeState, ResetCause,
+    malformed_frames u16 (saturates), uptime_s u16 (wraps)."""
+    f = "HEARTBEAT"
+    if device_type not in _DT_BY_VALUE:
+        raise EncodeError(f, "device_type", "DeviceType in [1, 2, 3, 16]", device_type)
+    _enum_or_raise(_STATE, state, f, "state", EncodeError)
+    _enum_or_raise(_CAUSE, reset_cause, f, "reset_cause", EncodeError)
+    try:
+        return _S_HEARTBEAT.pack(device_type, state, reset_cause,
+                                 _clamp(malformed_frames, 0, 0xFFFF), uptime_s & 0xFFFF)
+    except (struct.error, TypeError) as exc:
+        raise _not_int(f, exc) from None
+
+
+def decode_heartbeat(data) -> Heartbeat:
+    """Decode ``HEARTBEAT``; raises MalformedFrame."""
+    _check_len(data, "HEARTBEAT")
+    dt, state, cause, mal, up = _S_HEARTBEAT.unpack(data)
+    dtype = _DT_BY_VALUE.get(dt)
+    if dtype is None:
+        raise MalformedFrame("HEARTBEAT", "device_type", "DeviceType in [1, 2, 3, 16]", dt)
+    return Heartbeat(dtype, _enum_or_raise(_STATE, state, "HEARTBEAT", "state", MalformedFrame),
+                     _enum_or_raise(_CAUSE, cause, "HEARTBEAT", "reset_cause", MalformedFrame),
+                     mal, up)
+
+
+# ------------------------------------------------------------------------------------------------
+# Frame table: the single description of fields, used for the DBC, tests and docs
+# ------------------------------------------------------------------------------------------------
+
+
+class Field(NamedTuple):
+    """One field of a frame (all fields are little-endian and start on a byte boundary).
+
+    ``lo``/``hi`` is the range the encoder accepts unchanged (and the decoder returns);
+    ``kind`` is ``"enum"``, ``"flags"``, ``"wrap"``, ``"clamp"`` or ``"id"`` (see module doc).
+    ``dbc_name``/``factor``/``dbc_unit`` give the DBC signal (physical = raw × factor); for
+    ``flags`` the DBC has one 1-bit signal per name in ``flag_names``.
+    """
+
+    name: str
+    start_byte: int
+    bits: int
+    signed: bool
+    lo: int
+    hi: int
+    kind: str
+    unit: str = ""
+    enum: type | None = None
+    flag_names: tuple = ()
+    dbc_name: str | None = None
+    factor: float = 1.0
+    dbc_unit: str = ""
+    doc: str = ""
+
+
+class FrameSpec(NamedTuple):
+    """One frame kind: name, function code, nodes, codec and fields (after byte 0)."""
+
+    name: str
+    function_code: int
+    nodes: tuple            #: nodes the COB-ID is formed with (sender, or addressee for commands)
+    sender: str             #: "node" (the node itself) or "host"
+    period_us: int | None   #: nominal period; None = on event / on demand
+    fields: tuple
+    tuple_type: type
+    encode: Callable
+    decode: Callable
+    doc: str
+
+
+def _fl(names: tuple) -> tuple:
+    return names
+
+
+def _enum_range(e) -> tuple[int, int]:
+    return min(e), max(e)
+
+
+FRAMES: dict[str, FrameSpec] = {}
+
+
+def _add(spec: FrameSpec) -> None:
+    FRAMES[spec.name] = spec
+
+
+_add(FrameSpec("HOST_BROADCAST", FC_HOST_BROADCAST, (None,), "host", None, (
+    Field("cmd", 1, 8, False, 1, 3, "enum", enum=BroadcastCommand),
+    Field("target_node", 2, 8, False, 0, 255, "id", doc="0 = all nodes"),
+    Field("reset_cause", 3, 8, False, 0, 2, "enum", enum=ResetCause),
+), HostBroadcast, encode_host_broadcast, decode_host_broadcast,
+    "host to all: PING (answered by HEARTBEAT), RESET, STOP_ALL"))
+
+_add(FrameSpec("LIMIT", FC_LIMIT, READER_NODES, "node", None, (
+    Field("axis", 1, 8, False, 0, 1, "enum", enum=Axis),
+    Field("flags", 2, 8, False, 0, 7, "flags", flag_names=("low_soft_limit", "high_soft_limit",
+                                                            "position_invalid")),
+    Field("pos_counts", 4, 29, False, 0, (1 << 29) - 1, "wrap", unit="counts",
+          dbc_unit="counts", doc="29-bit absolute position, 2**29 per revolution"),
+), Limit, encode_limit, decode_limit,
+    "reader to axis controller: on change, then every 100 ms while a limit is active"))
+
+_add(FrameSpec("FAULT", FC_FAULT, BOARD_NODES, "node", None, (
+    Field("code", 1, 8, False, 1, 5, "enum", enum=FaultCode),
+    Field("malformed_frames", 2, 16, False, 0, 0xFFFF, "clamp", unit="frames"),
+    Field("crc_errors", 4, 16, False, 0, 0xFFFF, "clamp", unit="reads"),
+    Field("detail", 6, 16, False, 0, 0xFFFF, "clamp", doc="code-specific, e.g. offending COB-ID"),
+), Fault, encode_fault, decode_fault, "any board to host, on event"))
+
+_add(FrameSpec("AXIS_STATUS", FC_STATUS, AXIS_NODES, "node", AXIS_STATUS_PERIOD_US, (
+    Field("mode", 1, 8, False, 0, 8, "enum", enum=AxisMode),
+    Field("flags", 2, 8, False, 0, 15, "flags", flag_names=("limit_stop", "anti_windup",
+                                                             "over_current", "fault")),
+    Field("u_q15", 3, 16, True, -32767, 32767, "clamp", unit="duty Q15",
+          dbc_name="control_effort", factor=1 / 32767, dbc_unit="duty",
+          doc="control effort U, ±32767 = ±100 % duty"),
+    Field("qei_counts", 5, 24, False, 0, (1 << 24) - 1, "wrap", unit="counts", dbc_unit="counts",
+          doc="low 24 bits of the cumulative QEI count"),
+), AxisStatus, encode_axis_status, decode_axis_status, "axis controller to host, every 10 ms"))
+
+_add(FrameSpec("POSITION", FC_STATUS, READER_NODES, "node", POSITION_PERIOD_US, (
+    Field("flags", 1, 8, False, 0, 15, "flags", flag_names=("low_limit", "high_limit",
+                                                             "crc_error", "invalid")),
+    Field("crc_errors", 2, 16, False, 0, 0xFFFF, "clamp", unit="reads"),
+    Field("pos_counts", 4, 29, False, 0, (1 << 29) - 1, "wrap", unit="counts", dbc_unit="counts",
+          doc="29-bit absolute position, 2**29 per revolution"),
+), Position, encode_position, decode_position, "reader to host, every 10 ms"))
+
+_add(FrameSpec("FOCUS_STATUS", FC_STATUS, (NodeId.FOCUS,), "node", FOCUS_STATUS_PERIOD_US, (
+    Field("flags", 1, 8, False, 0, 15, "flags", flag_names=("moving", "holding", "index_seen",
+                                                             "power_off")),
+    Field("lvdt_adc", 2, 10, False, 0, ADC_MAX, "clamp", unit="ADC counts", dbc_unit="counts"),
+    Field("pos_halfsteps", 4, 32, True, I32_MIN, I32_MAX, "clamp", unit="half-steps",
+          dbc_unit="halfsteps"),
+), FocusStatus, encode_focus_status, decode_focus_status, "focus controller to host, every 250 ms"))
+
+_add(FrameSpec("AXIS_AUX", FC_AUX, AXIS_NODES, "node", AXIS_AUX_PERIOD_US, (
+    Field("seq", 1, 8, False, 0, 255, "wrap"),
+    Field("adc_a", 2, 10, False, 0, ADC_MAX, "clamp", unit="ADC counts", dbc_unit="counts",
+          doc="shunt ADC, motor A (positive direction)"),
+    Field("adc_b", 4, 10, False, 0, ADC_MAX, "clamp", unit="ADC counts", dbc_unit="counts",
+          doc="shunt ADC, motor B"),
+    Field("qei_delta", 6, 16, True, -32768, 32767, "clamp", unit="counts/tick",
+          dbc_unit="counts", doc="QEI counts in the last 5 ms tick"),
+), AxisAux, encode_axis_aux, decode_axis_aux, "axis controller to host, every 10 ms"))
+
+_add(FrameSpec("AXIS_COMMAND", FC_COMMAND, AXIS_NODES, "host", None, (
+    Field("cmd", 1, 8, False, 0, 9, "enum", enum=AxisCommand),
+    Field("direction", 2, 8, True, -1, 1, "enum", doc="+1 / -1 (0 where meaningless)"),
+    Field("value", 4, 32, True, I32_MIN, I32_MAX, "clamp",
+          doc="VELOCITY: milli-arcsec/s; OPEN_LOOP: duty Q15; SET_KP/SET_KI: gain × 1e6, "
+              "gain in duty/(arcsec/s)"),
+), AxisCommandFrame, encode_axis_command, decode_axis_command, "host to axis controller"))
+
+_add(FrameSpec("FOCUS_COMMAND", FC_COMMAND, (NodeId.FOCUS,), "host", None, (
+    Field("cmd", 1, 8, False, 0, 4, "enum", enum=FocusCommand),
+    Field("value", 4, 32, True, I32_MIN, I32_MAX, "clamp", unit="half-steps",
+          dbc_unit="halfsteps"),
+), FocusCommandFrame, encode_focus_command, decode_focus_command, "host to focus controller"))
+
+_add(FrameSpec("HEARTBEAT", FC_HEARTBEAT, ALL_NODES, "node", HEARTBEAT_PERIOD_US, (
+    Field("state", 1, 8, False, 0, 3, "enum", enum=NodeState),
+    Field("reset_cause", 2, 8, False, 0, 2, "enum", enum=ResetCause),
+    Field("malformed_frames", 4, 16, False, 0, 0xFFFF, "clamp", unit="frames"),
+    Field("uptime_s", 6, 16, False, 0, 0xFFFF, "wrap", unit="s", dbc_unit="s"),
+), Heartbeat, encode_heartbeat, decode_heartbeat, "every node, every 1 s and in answer to PING"))
+
+#: Per-command DBC signal for ``AXIS_COMMAND.value`` (the DBC multiplexes it by ``cmd``):
+#: command -> (signal name, factor, unit).
+AXIS_COMMAND_VALUE_SIGNALS: dict[AxisCommand, tuple[str, float, str]] = {
+    c: (f"{c.name.lower()}_value", 1.0, "") for c in AxisCommand}
+AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.VELOCITY] = ("velocity", 0.001, "arcsec/s")
+AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.OPEN_LOOP] = ("open_loop_duty", 1 / 32767, "duty")
+AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.SET_KP] = ("kp", 1e-6, "duty/(arcsec/s)")
+AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.SET_KI] = ("ki", 1e-6, "duty/(arcsec/s)")
+
+
+# ------------------------------------------------------------------------------------------------
+# COB-ID table, names and the generic dispatcher
+# ------------------------------------------------------------------------------------------------
+
+
+def _message_name(spec: FrameSpec, node) -> str:
+    if node is None or len(spec.nodes) == 1:
+        return spec.name
+    if spec.nodes in (AXIS_NODES, READER_NODES):   # RA / DEC is unambiguous here
+        return f"{spec.name}_{'RA' if node in (NodeId.RA_AXIS, NodeId.RA_READER) else 'DEC'}"
+    return f"{spec.name}_{NODE_NAME[node]}"
+
+
+#: cob_id -> (message name, FrameSpec, node or None). One entry per DBC message.
+COB_TABLE: dict[int, tuple[str, FrameSpec, int | None]] = {}
+for _spec in FRAMES.values():
+    for _node in _spec.nodes:
+        _cob = _spec.function_code + (0 if _node is None else int(_node))
+        assert _cob not in COB_TABLE, hex(_cob)
+        COB_TABLE[_cob] = (_message_name(_spec, _node), _spec, _node)
+del _spec, _node, _cob
+
+_DECODERS = {cob: entry[1].decode for cob, entry in COB_TABLE.items()}
+_NAMES = {cob: entry[0] for cob, entry in COB_TABLE.items()}
+_SENDER_DT = {cob: DEVICE_TYPE_OF_NODE[node] for cob, (_, spec, node) in COB_TABLE.items()
+              if spec.name in ("FAULT", "HEARTBEAT")}
+
+
+def frame_name(cob_id: int) -> str:
+    """Message name of ``cob_id`` as in the DBC, e.g. ``0x181 -> "AXIS_STATUS_RA"``;
+    ``"UNKNOWN_0x123"`` for identifiers outside the protocol."""
+    name = _NAMES.get(cob_id)
+    return name if name is not None else f"UNKNOWN_0x{cob_id:03X}"
+
+
+def frame_kind(cob_id: int) -> str | None:
+    """Frame kind of ``cob_id`` (``"AXIS_STATUS"``...), or None if unknown."""
+    entry = COB_TABLE.get(cob_id)
+    return entry[1].name if entry else None
+
+
+def node_of(cob_id: int) -> int | None:
+    """Node the COB-ID is formed with (sender; addressee for commands), None for broadcasts."""
+    entry = COB_TABLE.get(cob_id)
+    return entry[2] if entry else None
+
+
+def decode(cob_id: int, data) -> NamedTuple:
+    """Decode any protocol frame by identifier.
+
+    Raises
+    ------
+    MalformedFrame
+        Unknown identifier (``field="cob_id"``), or the frame's decoder refuses it; for
+        ``FAULT``/``HEARTBEAT`` also when byte 0 is not the device type of the sending node.
+    """
+    decoder = _DECODERS.get(cob_id)
+    if decoder is None:
+        raise MalformedFrame(frame_name(cob_id), "cob_id", "a schmidt protocol identifier",
+                             hex(cob_id))
+    frame = decoder(data)
+    dt = _SENDER_DT.get(cob_id)
+    if dt is not None and frame.device_type != dt:
+        raise _bad_type(_NAMES[cob_id], dt, int(frame.device_type))
+    return frame
+
+
+def format_frame(cob_id: int, data) -> str:
+    """One-line human-readable rendering for logs, never raising."""
+    try:
+        fields = decode(cob_id, data)
+        body = ", ".join(f"{k}={getattr(v, 'name', v)}" for k, v in fields._asdict().items())
+    except MalformedFrame as exc:
+        body = f"MALFORMED ({exc}) {bytes(data).hex(' ')}"
+    return f"{frame_name(cob_id)} 0x{cob_id:03X} [{body}]"
+
+
+DBC_PATH = Path(__file__).with_name("schmidt.dbc")
+
+
+@lru_cache(maxsize=1)
+def load_dbc():
+    """Load ``bus/schmidt.dbc`` with cantools (imported lazily; cached).
+
+    Returns
+    -------
+    cantools.database.can.Database
+    """
+    import cantools
+
+    return cantools.database.load_file(str(DBC_PATH), strict=True)
+
+
+# ------------------------------------------------------------------------------------------------
+# DBC generation (``python -m bus.protocol > bus/schmidt.dbc``)
+# ------------------------------------------------------------------------------------------------
+
+_DBC_NODES = ("HOST", "RA_AXIS", "DEC_AXIS", "RA_READER", "DEC_READER", "FOCUS")
+
+
+def _fmt(x: float) -> str:
+    return repr(int(x)) if float(x).is_integer() else repr(float(x))
+
+
+def _receivers(spec: FrameSpec, node) -> str:
+    if spec.name == "HOST_BROADCAST":
+        return ",".join(NODE_NAME[n] for n in BOARD_NODES)
+    if spec.sender == "host":
+        return NODE_NAME[node]
+    if spec.name == "LIMIT":
+        return NODE_NAME[NodeId.RA_AXIS if node == NodeId.RA_READER else NodeId.DEC_AXIS]
+    if node == NodeId.HOST:
+        return "Vector__XXX"
+    return "HOST"
+
+
+def dbc_text() -> str:
+    """Render the DBC describing :data:`FRAMES` (the content of ``bus/schmidt.dbc``)."""
+    out = ['VERSION "schmidt-fil 1"', "", "NS_ :", "", "BS_:", "",
+           "BU_: " + " ".join(_DBC_NODES), "", ""]
+    comments, values, cycles = [], [], []
+    for cob, (name, spec, node) in sorted(COB_TABLE.items()):
+        tx = "HOST" if spec.sender == "host" or node is None else NODE_NAME[node]
+        rx = _receivers(spec, node)
+        out.append(f"BO_ {cob} {name}: 8 {tx}")
+        out.append(f' SG_ device_type : 0|8@1+ (1,0) [0|255] "" {rx}')
+        values.append(f"VAL_ {cob} device_type " +
+                      " ".join(f'{int(d)} "{d.name}"' for d in DeviceType) + " ;")
+        comments.append(f'CM_ BO_ {cob} "{spec.doc}";')
+        if spec.period_us:
+            cycles.append(f'BA_ "GenMsgCycleTime" BO_ {cob} {spec.period_us // 1000};')
+        for f in spec.fields:
+            start = f.start_byte * 8
+            sign = "-" if f.signed else "+"
+            if f.kind == "flags":
+                for i, flag in enumerate(f.flag_names):
+                    out.append(f' SG_ {flag} : {start + i}|1@1+ (1,0) [0|1] "" {rx}')
+                continue
+            if spec.name == "AXIS_COMMAND" and f.name == "value":
+                for cmd, (sig, factor, unit) in AXIS_COMMAND_VALUE_SIGNALS.items():
+                    out.append(f" SG_ {sig} m{int(cmd)} : {start}|{f.bits}@1{sign} "
+                               f'({_fmt(factor)},0) [{_fmt(f.lo * factor)}|{_fmt(f.hi * factor)}]'
+                               f' "{unit}" {rx}')
+                continue
+            mux = " M" if spec.name == "AXIS_COMMAND" and f.name == "cmd" else ""
+            sig = f.dbc_name or f.name
+            out.append(f" SG_ {sig}{mux} : {start}|{f.bits}@1{sign} ({_fmt(f.factor)},0) "
+                       f'[{_fmt(f.lo * f.factor)}|{_fmt(f.hi * f.factor)}] "{f.dbc_unit}" {rx}')
+            if f.enum is not None:
+                values.append(f"VAL_ {cob} {sig} " +
+                              " ".join(f'{int(m)} "{m.name}"' for m in f.enum) + " ;")
+            if f.doc:
+                comments.append(f'CM_ SG_ {cob} {sig} "{f.doc}";')
+        out.append("")
+    out += ["", *comments, "",
+            'BA_DEF_ BO_ "GenMsgCycleTime" INT 0 65535;',
+            'BA_DEF_DEF_ "GenMsgCycleTime" 0;', *cycles, "", *values, ""]
+    return "\n".join(out)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    print(dbc_text(), end="")

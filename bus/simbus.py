@@ -1,0 +1,148 @@
+"""python-can interface ``schmidt-sim``: a BusABC on the emulated CAN network, in simulated time.
+
+``can.Bus(interface="schmidt-sim", channel="telescope")`` attaches to the
+:class:`~bus.network.CanNetwork` registered under ``"telescope"`` (create that first, with the
+scheduler), or pass ``network=`` explicitly.
+
+Semantics that differ from a hardware bus, because time is simulated:
+
+* ``send`` queues the frame for arbitration and returns at once; it never blocks or times out.
+* ``recv(timeout)`` and ``_recv_internal(timeout)`` return the next delivered frame or ``None``
+  immediately, whatever the timeout: nothing can arrive while the caller blocks, because the
+  scheduler is not running. (BusABC's ``recv(None)`` would spin forever; it is overridden.)
+* ``can_filters`` act as the controller's acceptance filters: a frame that does not match is
+  dropped at delivery and raises no receive interrupt.
+* Received ``can.Message`` objects are **shared read-only**: one Message per frame is built at
+  the end of transmission and the same instance goes to every receiver (no per-receiver copy,
+  unlike python-can ``virtual``). Receivers must not mutate it; copy it if you need to.
+* ``set_rx_callback(fn)``: ``fn()`` is scheduled at ``PRIO_CAN`` right after each accepted
+  delivery — the receive interrupt. Plain python-can buses have no such hook; boards poll.
+* No Notifier threads or ``send_periodic`` inside simulated time (BusABC's thread-based
+  periodic tasks would use the wall clock); schedule periodic sends on the scheduler.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Callable
+
+import can
+
+from bus.errors import BusError
+from bus.network import CanNetwork, get_network
+from bus.scheduler import PRIO_CAN
+
+__all__ = ["SimBus"]
+
+
+class SimBus(can.BusABC):
+    """One node's CAN controller on a simulated :class:`~bus.network.CanNetwork`.
+
+    Parameters
+    ----------
+    channel : str
+        Network name in the registry (default ``"telescope"``).
+    can_filters : list of dict, optional
+        python-can filters, applied at delivery (acceptance filtering).
+    network : CanNetwork, optional
+        Attach to this network instead of looking ``channel`` up.
+    receive_own_messages : bool
+        Also deliver this bus's own frames back to it (``is_rx=False``), default False.
+    name : str, optional
+        Owner name used in scheduler errors for the rx callback (e.g. ``"ra-axis"``).
+    rx_queue_size : int, optional
+        Maximum frames kept for ``recv``; older frames are dropped first and counted in
+        ``rx_overruns`` (a controller's receive buffer overflow). Default: unbounded.
+    """
+
+    def __init__(self, channel: str = "telescope", can_filters=None, *,
+                 network: CanNetwork | None = None, receive_own_messages: bool = False,
+                 name: str | None = None, rx_queue_size: int | None = None, **kwargs) -> None:
+        if channel is None:
+            channel = network.channel if network is not None else "telescope"
+        self.network = network if network is not None else get_network(channel)
+        self.channel = self.network.channel
+        self.channel_info = f"schmidt-sim channel {self.channel!r}"
+        self.receive_own_messages = receive_own_messages
+        self.name = name or f"simbus:{self.channel}"
+        self._scheduler = self.network.scheduler
+        self._rx: deque = deque()
+        self._rx_queue_size = rx_queue_size
+        self.rx_overruns = 0
+        self._rx_callback: Callable[[], object] | None = None
+        self._attached = False
+        super().__init__(channel=self.channel, can_filters=can_filters, **kwargs)
+        self.network.attach(self)
+        self._attached = True
+
+    # -- transmit ---------------------------------------------------------------------------
+    def send(self, msg: can.Message, timeout: float | None = None) -> None:
+        """Queue ``msg`` for arbitration (never blocks; ``timeout`` is ignored).
+
+        Raises
+        ------
+        bus.errors.BusError
+            After shutdown, or for frames the network does not emulate (extended, remote, FD,
+            more than 8 bytes).
+        """
+        if not self._attached:
+            raise BusError(f"{self.name}: send on a shut-down bus")
+        self.network.submit(self, msg)
+
+    # -- receive ----------------------------------------------------------------------------
+    def _deliver(self, msg: can.Message) -> None:
+        """Called by the network at the end of a frame (shared read-only ``msg``)."""
+        if self._filters is not None and not self._matches_filters(msg):
+            return
+        rx = self._rx
+        if self._rx_queue_size is not None and len(rx) >= self._rx_queue_size:
+            rx.popleft()
+            self.rx_overruns += 1
+        rx.append(msg)
+        cb = self._rx_callback
+        if cb is not None:
+            self._scheduler.call_at(self._scheduler.now_us, self._fire, PRIO_CAN, owner=self.name)
+
+    def _fire(self, now_us: int) -> None:
+        cb = self._rx_callback
+        if cb is not None:
+            cb()
+
+    def _recv_internal(self, timeout: float | None):
+        """Return ``(next delivered frame, True)`` or ``(None, False)`` at once."""
+        if self._rx:
+            return self._rx.popleft(), True
+        return None, False
+
+    def recv(self, timeout: float | None = None) -> can.Message | None:
+        """Next delivered frame or ``None`` at once (``timeout`` is ignored: simulated time)."""
+        if self._rx:
+            return self._rx.popleft()
+        return None
+
+    def set_rx_callback(self, fn: Callable[[], object] | None) -> None:
+        """Install the receive interrupt: ``fn()`` runs at ``PRIO_CAN`` after each delivery."""
+        self._rx_callback = fn
+
+    @property
+    def rx_pending(self) -> int:
+        """Frames delivered and not yet read."""
+        return len(self._rx)
+
+    def flush_rx(self) -> None:
+        """Drop every frame waiting to be read."""
+        self._rx.clear()
+
+    # -- lifecycle --------------------------------------------------------------------------
+    def shutdown(self) -> None:
+        """Detach from the network (idempotent); pending TX frames are dropped."""
+        if self._attached:
+            self.network.detach(self)
+            self._attached = False
+        super().shutdown()
+
+    @staticmethod
+    def _detect_available_configs():
+        from bus.network import _REGISTRY
+
+        return [{"interface": "schmidt-sim", "channel": ch} for ch in _REGISTRY]

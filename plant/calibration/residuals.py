@@ -1,0 +1,217 @@
+"""Residual analysis: where does the fitted model miss?
+
+Four views of the (decimated) residual ``r = y − ŷ``:
+
+* :func:`velocity_profile` — binned mean residual against velocity: asymmetry between the
+  directions (``asymmetric_friction``) and a bump at low speed (Stribeck).
+* :func:`position_spectrum` — Lomb–Scargle periodogram of the residual against *position*, over
+  the samples in motion, in cycles per unit position (cycles/rad or cycles/m): gear or
+  motor-revolution ripple, imbalance.
+* :func:`time_spectrum` — the same against time, in Hz.
+* :func:`reversal_profile` — residual around velocity reversals, signed by the new direction of
+  motion: pre-sliding, hysteresis, backlash.
+
+The periodogram is normalised so that its value at a frequency is the share of the residual
+variance a single sinusoid at that frequency explains (0..1). Its false-alarm probability for
+``M`` independent frequencies and white noise is about ``M·(1−z)^((n_eff−3)/2)``; we use the AR(1)
+effective sample size ``n_eff`` because the residuals are autocorrelated.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import signal
+
+from plant.calibration.fit import effective_n
+
+__all__ = ["velocity_profile", "position_spectrum", "time_spectrum", "reversal_profile", "find_peaks", "moving_mask", "summarize", "whiteness"]
+
+
+def moving_mask(dq: np.ndarray, frac: float = 0.05) -> np.ndarray:
+    """Samples in motion: ``|dq|`` above ``frac`` of its 95th percentile."""
+    v95 = float(np.percentile(np.abs(dq), 95)) if dq.size else 0.0
+    return np.abs(dq) > frac * v95
+
+
+def velocity_profile(dq: np.ndarray, resid: np.ndarray, n_bins: int = 30) -> dict:
+    """Binned residual against velocity.
+
+    Returns
+    -------
+    dict
+        ``centers``, ``mean``, ``std``, ``count`` (arrays over bins with ≥ 5 samples) and
+        ``asymmetry``: the mean residual for positive minus negative velocities, and the slopes of
+        the residual against velocity on each side (evidence of asymmetric viscous friction).
+    """
+    edges = np.quantile(dq, np.linspace(0, 1, n_bins + 1))
+    edges = np.unique(edges)
+    idx = np.clip(np.digitize(dq, edges) - 1, 0, len(edges) - 2)
+    centers, mean, std, count = [], [], [], []
+    for b in range(len(edges) - 1):
+        m = idx == b
+        if m.sum() < 5:
+            continue
+        centers.append(float(np.mean(dq[m])))
+        mean.append(float(np.mean(resid[m])))
+        std.append(float(np.std(resid[m])))
+        count.append(int(m.sum()))
+    mov = moving_mask(dq)
+    pos, neg = mov & (dq > 0), mov & (dq < 0)
+    out = {"centers": np.array(centers), "mean": np.array(mean), "std": np.array(std), "count": np.array(count)}
+
+    def slope(m: np.ndarray) -> float:
+        if m.sum() < 10:
+            return float("nan")
+        return float(np.polyfit(dq[m], resid[m], 1)[0])
+
+    out["asymmetry"] = {
+        "mean_pos": float(resid[pos].mean()) if pos.any() else float("nan"),
+        "mean_neg": float(resid[neg].mean()) if neg.any() else float("nan"),
+        "slope_pos": slope(pos),
+        "slope_neg": slope(neg),
+    }
+    return out
+
+
+def _lomb(x: np.ndarray, r: np.ndarray, freqs: np.ndarray) -> np.ndarray:
+    """Normalised Lomb–Scargle power: share of var(r) explained by one sinusoid at each frequency."""
+    r = r - r.mean()
+    var = float(r @ r)
+    if var <= 0 or x.size < 10:
+        return np.zeros_like(freqs)
+    p = signal.lombscargle(x, r, 2 * np.pi * freqs, precenter=False)
+    return np.clip(2.0 * p / var, 0.0, 1.0)
+
+
+def position_spectrum(q: np.ndarray, dq: np.ndarray, resid: np.ndarray, n_freq: int = 4000) -> dict:
+    """Residual spectrum against position over the samples in motion.
+
+    Returns
+    -------
+    dict
+        ``freq`` [cycles per unit position], ``share`` (0..1), ``n`` samples used, ``n_eff``.
+    """
+    mov = moving_mask(dq)
+    x, r = q[mov], resid[mov]
+    if x.size < 50:
+        return {"freq": np.array([]), "share": np.array([]), "n": int(x.size), "n_eff": 0.0}
+    span = float(x.max() - x.min())
+    step = float(np.median(np.abs(np.diff(x)))) or span / x.size
+    fmin, fmax = 3.0 / span, 0.5 / step
+    freqs = np.linspace(fmin, fmax, n_freq) if fmax > fmin else np.array([fmin])
+    return {"freq": freqs, "share": _lomb(x, r, freqs), "n": int(x.size), "n_eff": effective_n(r)}
+
+
+def time_spectrum(t: np.ndarray, resid: np.ndarray, f_max_hz: float | None = None, n_freq: int = 4000) -> dict:
+    """Residual spectrum against time.
+
+    Parameters
+    ----------
+    f_max_hz : float, optional
+        Upper frequency; default 0.8 of the Nyquist frequency of ``t`` (the decimation pass band).
+
+    Returns
+    -------
+    dict
+        ``freq`` [Hz], ``share`` (0..1), ``n``, ``n_eff``.
+    """
+    dt = float(np.median(np.diff(t)))
+    T = float(t[-1] - t[0])
+    fmin = 3.0 / T
+    fmax = f_max_hz if f_max_hz is not None else 0.8 * 0.5 / dt
+    freqs = np.linspace(fmin, fmax, n_freq)
+    return {"freq": freqs, "share": _lomb(t, resid, freqs), "n": int(t.size), "n_eff": effective_n(resid)}
+
+
+def find_peaks(spec: dict, n_peaks: int = 3, min_share: float = 0.0, fap_max: float = 1.0) -> list[dict]:
+    """Strongest local maxima of a spectrum from :func:`position_spectrum`/:func:`time_spectrum`.
+
+    Returns
+    -------
+    list of dict
+        ``{"frequency", "share", "fap"}`` sorted by share, at most ``n_peaks``; ``fap`` is the
+        false-alarm probability (white noise, ``n_eff`` samples, independent frequencies ≈ span × T).
+    """
+    f, s = spec["freq"], spec["share"]
+    if f.size < 3:
+        return []
+    idx, _ = signal.find_peaks(s)
+    idx = idx[np.argsort(s[idx])[::-1]]
+    n_eff = max(spec.get("n_eff", spec["n"]), 4.0)
+    m_indep = max(spec["n"] / 2.0, 1.0)
+    out = []
+    for i in idx:
+        z = float(s[i])
+        fap = min(1.0, m_indep * (1.0 - z) ** ((n_eff - 3.0) / 2.0)) if z < 1 else 0.0
+        if z < min_share or fap > fap_max:
+            continue
+        # avoid near-duplicates (within 2 % of a stronger peak)
+        if any(abs(f[i] - p["frequency"]) < 0.02 * p["frequency"] for p in out):
+            continue
+        out.append({"frequency": float(f[i]), "share": z, "fap": fap})
+        if len(out) >= n_peaks:
+            break
+    return out
+
+
+def reversal_profile(t: np.ndarray, dq: np.ndarray, resid: np.ndarray, window_s: float = 0.15) -> dict:
+    """Residual around velocity reversals, signed by the direction of the new motion.
+
+    Returns
+    -------
+    dict
+        ``lag_s`` (time since reversal), ``mean`` (mean signed residual over reversals),
+        ``n_reversals``, ``share_pct`` (share of the residual's sum of squares that falls within
+        ±window of a reversal) and ``time_share_pct`` (share of the samples within those windows;
+        a much larger energy share than time share flags reversal effects).
+    """
+    dt = float(np.median(np.diff(t)))
+    w = max(int(round(window_s / dt)), 2)
+    mov = moving_mask(dq, 0.2)
+    sgn = np.sign(dq) * mov
+    nz = np.flatnonzero(sgn)
+    rev = []
+    for a, b in zip(nz[:-1], nz[1:]):
+        if sgn[a] != sgn[b]:
+            # the zero crossing between a and b
+            seg = dq[a : b + 1]
+            k = a + int(np.argmin(np.abs(seg)))
+            rev.append((k, float(sgn[b])))
+    lags = np.arange(-w, w + 1)
+    prof = []
+    inwin = np.zeros(resid.size, bool)
+    for k, direction in rev:
+        if k - w < 0 or k + w >= resid.size:
+            continue
+        prof.append(direction * resid[k - w : k + w + 1])
+        inwin[k - w : k + w + 1] = True
+    total = float(resid @ resid) or 1.0
+    return {
+        "lag_s": lags * dt,
+        "mean": np.mean(prof, axis=0) if prof else np.zeros(lags.size),
+        "n_reversals": len(prof),
+        "share_pct": 100.0 * float(resid[inwin] @ resid[inwin]) / total,
+        "time_share_pct": 100.0 * float(inwin.mean()),
+    }
+
+
+def summarize(prep, resid: np.ndarray) -> dict:
+    """All four views for a prepared record's decimated residual (used by the report)."""
+    return {
+        "velocity": velocity_profile(prep.dq_dec, resid),
+        "position": position_spectrum(prep.q_dec, prep.dq_dec, resid),
+        "time": time_spectrum(prep.t_dec, resid),
+        "reversal": reversal_profile(prep.t_dec, prep.dq_dec, resid),
+    }
+
+
+def whiteness(resid: np.ndarray) -> float:
+    """Lag-1 autocorrelation of the residual (0 for white noise)."""
+    r = resid - resid.mean()
+    d = float(r @ r)
+    return float(r[1:] @ r[:-1] / d) if d > 0 else 0.0
+
+
+_ = math

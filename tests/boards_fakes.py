@@ -1,0 +1,83 @@
+"""Test doubles for the boards tests: a python-can bus with a receive hook and a toy axis plant.
+
+Not the real plant (boards tests must not depend on plant/): a first-order rate model
+``dω/dt = (k·(duty_a − duty_b) − ω)/τ`` integrated in 100 µs steps, plus the QEI count.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import can
+
+from bus.scheduler import PRIO_PLANT
+
+
+def FakeBus(rx_interrupt: bool = True):
+    """A fake bus with (``SimBus``-like) or without (plain python-can) a receive hook."""
+    return InterruptFakeBus() if rx_interrupt else PlainFakeBus()
+
+
+class PlainFakeBus(can.BusABC):
+    """In-memory bus: ``inject`` delivers a frame (and fires the rx callback), ``sent`` records."""
+
+    def __init__(self):
+        super().__init__(channel="fake")
+        self._is_shutdown = True     # nothing to release; silences the __del__ warning
+        self.sent = []
+        self._rx = deque()
+        self._cb = None
+
+    def send(self, msg, timeout=None):
+        self.sent.append(msg)
+
+    def _recv_internal(self, timeout):
+        if self._rx:
+            return self._rx.popleft(), False
+        return None, False
+
+    def inject(self, arbitration_id, data, **kw):
+        self._rx.append(can.Message(arbitration_id=arbitration_id, data=bytes(data),
+                                    is_extended_id=kw.pop("is_extended_id", False), **kw))
+        if self._cb is not None:
+            self._cb()
+
+    def frames(self, arbitration_id):
+        return [m for m in self.sent if m.arbitration_id == arbitration_id]
+
+    def shutdown(self):
+        super().shutdown()
+
+
+class InterruptFakeBus(PlainFakeBus):
+    """Fake bus with ``set_rx_callback`` (the receive interrupt of ``bus.simbus.SimBus``)."""
+
+    def set_rx_callback(self, fn):
+        self._cb = fn
+
+
+class ToyAxis:
+    """First-order axis-rate model driven by two duties; QEI counts from the integrated angle."""
+
+    def __init__(self, scheduler, k_arcsec_s_per_duty=19_550.0, tau_s=0.09,
+                 arcsec_per_count=1_296_000 / 112_896_000, step_us=100):
+        self.s = scheduler
+        self.k, self.tau = k_arcsec_s_per_duty, tau_s
+        self.arcsec_per_count = arcsec_per_count
+        self.omega = 0.0          # arcsec/s
+        self.angle = 0.0          # arcsec
+        self.duties = (0.0, 0.0)
+        self.step_us = step_us
+        scheduler.call_every(step_us, self._step, priority=PRIO_PLANT, owner="toy-plant")
+
+    def set_duties(self, a, b):
+        self.duties = (a, b)
+
+    def _step(self, now_us):
+        dt = self.step_us * 1e-6
+        u = self.duties[0] - self.duties[1]
+        self.omega += dt * (self.k * u - self.omega) / self.tau
+        self.angle += self.omega * dt
+
+    def qei_counts(self):
+        return int(self.angle // self.arcsec_per_count)

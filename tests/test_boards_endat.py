@@ -1,0 +1,164 @@
+"""Specification of the EnDat-2.2-style position frame and the PIC18F4480 position reader."""
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from boards.endat import (CRC_POLY, EnDatMaster, build_position_frame, crc5,
+                          parse_position_frame)
+from boards.position_reader import ARCSEC_PER_COUNT, PositionReader
+from bus import protocol as p
+from bus.scheduler import Scheduler
+from boards_fakes import FakeBus
+
+positions = st.integers(0, (1 << 29) - 1)
+
+
+def crc_by_long_division(bits):
+    """Independent reference: remainder of (preset-adjusted) message × x^5 mod G, complemented."""
+    # preset 11111 is equivalent to XOR-ing ones into the first 5 message bits
+    msg = list(bits) + [0] * 5
+    for i in range(min(5, len(bits))):
+        msg[i] ^= 1
+    if len(bits) < 5:
+        raise ValueError("reference needs >= 5 bits")
+    gen = [1, 0, 1, 0, 1, 1]          # x^5 + x^3 + x + 1
+    for i in range(len(bits)):
+        if msg[i]:
+            for j, g in enumerate(gen):
+                msg[i + j] ^= g
+    rem = msg[-5:]
+    return int("".join(str(1 - b) for b in rem), 2)
+
+
+def test_generator_is_x5_x3_x_1():
+    """The generator polynomial is 0x0B (x^5 + x^3 + x + 1)."""
+    assert CRC_POLY == 0x0B
+
+
+@pytest.mark.parametrize("bits,expected", [
+    ([0] * 31, 10),            # F1 F2 = 0, position 0
+    ([1] * 31, 1),
+    ([0, 0, 1] + [0] * 28, 2),  # position 1
+])
+def test_crc_known_vectors(bits, expected):
+    """Fixed vectors (regression values, cross-checked by polynomial long division)."""
+    assert crc5(bits) == expected
+    assert crc_by_long_division(bits) == expected
+
+
+@given(st.lists(st.integers(0, 1), min_size=5, max_size=64))
+def test_shift_register_equals_long_division(bits):
+    """The shift-register CRC equals the long-division definition for any message."""
+    assert crc5(bits) == crc_by_long_division(bits)
+
+
+@given(pos=positions, n=st.integers(0, 36))
+def test_every_single_flipped_bit_is_detected(pos, n):
+    """Any single corrupted bit of the 37-bit frame makes the reading unusable."""
+    frame = build_position_frame(pos)
+    assert parse_position_frame(frame).position == pos
+    frame[n] ^= 1
+    r = parse_position_frame(frame)
+    assert r.position is None and not r.valid
+
+
+@given(pos=positions)
+def test_frame_layout_start_f1_f2_lsb_first(pos):
+    """Frame = S, F1, F2, 29 position bits LSB first, 5 CRC bits."""
+    f = build_position_frame(pos)
+    assert len(f) == 37 and f[0] == 1 and f[1:3] == [0, 0]
+    assert sum(b << i for i, b in enumerate(f[3:32])) == pos
+
+
+def test_master_counts_crc_errors_and_fault_injection_is_one_shot():
+    """flip_bit corrupts the next frame only; the master counts it."""
+    m = EnDatMaster(lambda: 12345)
+    m.flip_bit(10)
+    assert m.read().position is None and m.crc_errors == 1
+    assert m.read().position == 12345 and m.crc_errors == 1
+
+
+def make_reader(word, **kw):
+    s = Scheduler()
+    bus = FakeBus()
+    r = PositionReader(s, bus, 3, read_position_word=lambda: word[0], **kw)
+    r.start()
+    return s, bus, r
+
+
+def deg_to_counts(deg):
+    return int(round(deg * 3600 / ARCSEC_PER_COUNT)) % (1 << 29)
+
+
+def test_position_published_every_10_ms_with_offset():
+    """POSITION every 10 ms carries (raw + offset) mod 2**29."""
+    word = [1000]
+    s, bus, r = make_reader(word, offset_counts=24)
+    s.run_until(100_000)
+    frames = [p.decode_position(m.data) for m in bus.frames(p.position_cob_id(3))]
+    assert len(frames) == 10 and frames[-1].pos_counts == 1024 and frames[-1].flags == 0
+
+
+def test_crc_error_keeps_last_good_position_and_flags_it():
+    """A corrupted read is counted, not used, flagged (bit2) and reported with FAULT(2)."""
+    word = [5000]
+    s, bus, r = make_reader(word)
+    s.run_until(10_000)
+    word[0] = 6000
+    r.flip_bit(7)
+    s.run_until(20_000)
+    pos = p.decode_position(bus.frames(p.position_cob_id(3))[-1].data)
+    assert pos.pos_counts == 5000 and pos.flags & p.PositionFlags.CRC_ERROR and pos.crc_errors == 1
+    fault = p.decode_fault(bus.frames(p.fault_cob_id(3))[-1].data)
+    assert fault.code == p.FaultCode.ENDAT_CRC and fault.crc_errors == 1
+    s.run_until(30_000)
+    pos = p.decode_position(bus.frames(p.position_cob_id(3))[-1].data)
+    assert pos.pos_counts == 6000 and pos.flags == 0
+
+
+def test_limit_frames_on_change_and_every_100_ms_while_active():
+    """Entering the high limit sends LIMIT at once, then every 100 ms; leaving sends one clear."""
+    word = [deg_to_counts(94.0)]
+    s, bus, r = make_reader(word)
+    s.run_until(50_000)
+    assert bus.frames(p.limit_cob_id(3)) == []
+    word[0] = deg_to_counts(95.5)
+    s.run_until(360_000)                    # entered at 60 ms → frames at 60, 160, 260, 360 ms
+    lims = [p.decode_limit(m.data) for m in bus.frames(p.limit_cob_id(3))]
+    assert len(lims) == 4 and all(l.flags == p.LimitFlags.HIGH_SOFT_LIMIT for l in lims)
+    assert lims[0].axis == p.Axis.RA
+    word[0] = deg_to_counts(95.0 - 20 / 3600)   # inside by 20″ > 10″ hysteresis
+    s.run_until(600_000)
+    lims = [p.decode_limit(m.data) for m in bus.frames(p.limit_cob_id(3))]
+    assert len(lims) == 5 and lims[-1].flags == 0
+
+
+def test_low_limit_and_hysteresis():
+    """The low limit stays active until the angle is back inside by the hysteresis."""
+    word = [deg_to_counts(-95.0 - 1 / 3600)]
+    s, bus, r = make_reader(word)
+    s.run_until(10_000)
+    assert r.limit_flags == p.LimitFlags.LOW_SOFT_LIMIT
+    word[0] = deg_to_counts(-95.0 + 5 / 3600)
+    s.run_until(20_000)
+    assert r.limit_flags == p.LimitFlags.LOW_SOFT_LIMIT
+    word[0] = deg_to_counts(-95.0 + 15 / 3600)
+    s.run_until(30_000)
+    assert r.limit_flags == 0
+
+
+def test_reader_limit_frame_drives_axis_controller():
+    """End to end on one fake bus pair: the reader's LIMIT frame stops the axis controller."""
+    from boards.axis_controller import AxisController, AxisMode
+    word = [deg_to_counts(96.0)]
+    s = Scheduler()
+    bus_r, bus_a = FakeBus(), FakeBus()
+    r = PositionReader(s, bus_r, 3, read_position_word=lambda: word[0])
+    ax = AxisController(s, bus_a, 1, read_qei_counts=lambda: 0)
+    r.start(); ax.start()
+    bus_a.inject(p.axis_command_cob_id(1), p.encode_axis_command(p.AxisCommand.SLEW, 1))
+    s.run_until(10_000)
+    for m in bus_r.frames(p.limit_cob_id(3)):
+        bus_a.inject(m.arbitration_id, m.data)
+    assert ax.mode == AxisMode.LIMIT_STOP

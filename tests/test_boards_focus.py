@@ -1,0 +1,85 @@
+"""Specification of the focus controller firmware (PIC18F4431, node 5)."""
+
+from bus import protocol as p
+from bus.scheduler import Scheduler
+from boards.focus_controller import FocusController
+from boards_fakes import FakeBus
+
+
+def make(**kw):
+    s = Scheduler()
+    bus = FakeBus()
+    steps, power = [], []
+    f = FocusController(s, bus, 5, on_step=steps.append, read_lvdt_v=lambda: 2.5,
+                        on_power=power.append, **kw)
+    f.start()
+    return s, bus, f, steps, power
+
+
+def cmd(bus, c, value=0):
+    bus.inject(p.focus_command_cob_id(), p.encode_focus_command(c, value))
+
+
+def test_step_command_issues_half_steps_at_the_step_rate():
+    """STEP +10 gives 10 half steps at 400/s (2.5 ms apart); position counts them."""
+    s, bus, f, steps, _ = make()
+    cmd(bus, p.FocusCommand.STEP, 10)
+    s.run_until(12_500)
+    assert steps == [1] * 5
+    s.run_until(100_000)
+    assert steps == [1] * 10 and f.pos_halfsteps == 10 and not f.moving
+
+
+def test_move_to_is_absolute_and_clamped_to_travel():
+    """MOVE_TO −5000 is clamped to −800 half-steps (±5 mm)."""
+    s, bus, f, steps, _ = make()
+    cmd(bus, p.FocusCommand.MOVE_TO, -5000)
+    s.run_until(3_000_000)
+    assert f.pos_halfsteps == -800 and steps.count(-1) == 800
+
+
+def test_focus_status_every_250_ms_with_lvdt_counts():
+    """FOCUS_STATUS every 250 ms: LVDT 10-bit counts, half-step position, moving flag."""
+    s, bus, f, steps, _ = make()
+    cmd(bus, p.FocusCommand.STEP, 200)
+    s.run_until(1_000_000)
+    st = [p.decode_focus_status(m.data) for m in bus.frames(p.focus_status_cob_id())]
+    assert len(st) == 4
+    assert st[0].lvdt_adc == 512 and st[0].flags & p.FocusFlags.MOVING
+    assert st[-1].pos_halfsteps == 200 and not st[-1].flags & p.FocusFlags.MOVING
+
+
+def test_hold_and_free_power_states():
+    """HOLD → holding flag and port 'hold'; FREE → power-off flag and port 'free'."""
+    s, bus, f, steps, power = make()
+    cmd(bus, p.FocusCommand.HOLD)
+    s.run_until(250_000)
+    assert power[-1] == "hold"
+    assert p.decode_focus_status(bus.frames(p.focus_status_cob_id())[-1].data).flags == p.FocusFlags.HOLDING
+    cmd(bus, p.FocusCommand.FREE)
+    s.run_until(500_000)
+    assert p.decode_focus_status(bus.frames(p.focus_status_cob_id())[-1].data).flags == p.FocusFlags.POWER_OFF
+    cmd(bus, p.FocusCommand.STEP, 1)
+    assert power[-1] == "on"
+
+
+def test_index_pulse_latched_until_reported():
+    """A rising index edge during a move sets INDEX_SEEN in the next status only."""
+    level = {"v": False}
+    s = Scheduler()
+    bus = FakeBus()
+    f = FocusController(s, bus, 5, on_step=lambda d: level.update(v=(f.pos_halfsteps + d) == 50),
+                        read_index=lambda: level["v"])
+    f.start()
+    cmd(bus, p.FocusCommand.STEP, 100)
+    s.run_until(500_000)
+    st = [p.decode_focus_status(m.data) for m in bus.frames(p.focus_status_cob_id())]
+    assert st[0].flags & p.FocusFlags.INDEX_SEEN and not st[1].flags & p.FocusFlags.INDEX_SEEN
+
+
+def test_malformed_focus_command_counted():
+    """Unknown FOCUS_COMMAND cmd → malformed_frames + FAULT(1)."""
+    s, bus, f, steps, _ = make()
+    bus.inject(p.focus_command_cob_id(), bytes([0x10, 9, 0, 0, 0, 0, 0, 0]))
+    assert f.malformed_frames == 1
+    assert p.decode_fault(bus.frames(p.fault_cob_id(5))[-1].data).code == p.FaultCode.MALFORMED_FRAME

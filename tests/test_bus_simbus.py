@@ -1,0 +1,146 @@
+"""Specification of bus.simbus: the python-can interface "schmidt-sim" in simulated time."""
+
+import can
+import pytest
+
+import bus  # noqa: F401  (registers the interface)
+from bus.errors import BusError
+from bus.network import CanNetwork, frame_bits
+from bus.scheduler import PRIO_ISR, Scheduler
+from bus.simbus import SimBus
+
+
+@pytest.fixture
+def sched():
+    return Scheduler()
+
+
+@pytest.fixture
+def channel(sched, request):
+    name = f"sim-{request.node.name}"
+    network = CanNetwork(sched, name)
+    yield name
+    network.close()
+
+
+def frame(aid=0x181, data=bytes(8)):
+    return can.Message(arbitration_id=aid, data=data, is_extended_id=False)
+
+
+def test_can_bus_factory_creates_simbus(channel):
+    """can.Bus(interface="schmidt-sim", channel=...) works after `import bus`."""
+    b = can.Bus(interface="schmidt-sim", channel=channel)
+    assert isinstance(b, SimBus) and isinstance(b, can.BusABC)
+    assert "schmidt-sim" in can.interfaces.BACKENDS
+    assert b.protocol == can.CanProtocol.CAN_20
+    b.shutdown()
+
+
+def test_send_and_receive_through_python_can_api(sched, channel):
+    """A frame sent on one bus is received on the others, not on the sender."""
+    a = can.Bus(interface="schmidt-sim", channel=channel)
+    b = can.Bus(interface="schmidt-sim", channel=channel)
+    c = can.Bus(interface="schmidt-sim", channel=channel)
+    sent = frame(0x201, bytes([0x10, 6, 1, 0, 1, 2, 3, 4]))
+    a.send(sent)
+    sched.run_until(1_000)
+    for rx in (b, c):
+        got = rx.recv(timeout=0)
+        assert got.equals(sent, timestamp_delta=None, check_channel=False)
+        assert got.is_rx and not got.is_extended_id and got.channel == channel
+    assert a.recv(timeout=0) is None
+
+
+def test_recv_returns_none_immediately_even_without_timeout(channel):
+    """recv() never blocks in simulated time, even with timeout=None."""
+    b = SimBus(channel)
+    assert b.recv() is None and b.recv(timeout=None) is None and b.recv(1.0) is None
+    assert b._recv_internal(timeout=None) == (None, False)
+
+
+def test_sender_may_reuse_its_message_object(sched, channel):
+    """The frame's data is captured at send(): mutating the Message afterwards has no effect."""
+    a, b = SimBus(channel), SimBus(channel)
+    m = frame(0x181, bytearray(8))
+    a.send(m)
+    m.data[0] = 0xFF
+    sched.run_until(1_000)
+    assert b.recv().data[0] == 0
+
+
+def test_receivers_share_one_read_only_message(sched, channel):
+    """All receivers get the same Message instance (documented: do not mutate)."""
+    a, b, c = SimBus(channel), SimBus(channel), SimBus(channel)
+    a.send(frame())
+    sched.run_until(1_000)
+    assert b.recv() is c.recv()
+
+
+def test_can_filters_are_acceptance_filters(sched, channel):
+    """Filtered-out frames are neither queued nor raise the rx callback."""
+    a = SimBus(channel)
+    b = SimBus(channel, can_filters=[{"can_id": 0x200, "can_mask": 0x780, "extended": False}])
+    calls = []
+    b.set_rx_callback(lambda: calls.append(1))
+    a.send(frame(0x181))
+    a.send(frame(0x201))
+    sched.run_until(1_000)
+    assert [m.arbitration_id for m in iter(b.recv, None)] == [0x201]
+    assert calls == [1]
+
+
+def test_rx_callback_runs_through_scheduler_after_delivery(sched, channel):
+    """The rx callback (receive interrupt) runs at the delivery µs, and can read the frame."""
+    a, b = SimBus(channel), SimBus(channel, name="ra-axis")
+    seen = []
+    b.set_rx_callback(lambda: seen.append((sched.now_us, b.recv().arbitration_id)))
+    sched.call_at(100, lambda now: a.send(frame(0x201)), PRIO_ISR)
+    sched.run_until(10_000)
+    assert seen == [(100 + frame_bits(0x201, bytes(8)), 0x201)]
+
+
+def test_receive_own_messages(sched, channel):
+    """receive_own_messages=True echoes the bus's own frames (is_rx False)."""
+    a = SimBus(channel, receive_own_messages=True)
+    a.send(frame())
+    sched.run_until(1_000)
+    echo = a.recv()
+    assert echo is not None and echo.is_rx is False
+
+
+def test_shutdown_detaches(sched, channel):
+    """After shutdown a bus receives nothing and cannot send."""
+    a, b = SimBus(channel), SimBus(channel)
+    b.shutdown()
+    a.send(frame())
+    sched.run_until(1_000)
+    assert b.recv() is None
+    with pytest.raises(BusError):
+        b.send(frame())
+    b.shutdown()  # idempotent
+
+
+def test_rx_queue_overrun_drops_oldest(sched, channel):
+    """A bounded receive buffer drops the oldest frame and counts the overrun."""
+    a, b = SimBus(channel), SimBus(channel, rx_queue_size=2)
+    for aid in (0x101, 0x102, 0x103):
+        a.send(frame(aid))
+    sched.run_until(1_000)
+    assert [m.arbitration_id for m in iter(b.recv, None)] == [0x102, 0x103]
+    assert b.rx_overruns == 1
+
+
+def test_unknown_channel_fails_clearly():
+    """can.Bus on a channel without a CanNetwork raises BusError naming it."""
+    with pytest.raises(BusError, match="no-such-channel"):
+        can.Bus(interface="schmidt-sim", channel="no-such-channel")
+
+
+def test_explicit_network_argument(sched, request):
+    """SimBus(network=...) bypasses the registry."""
+    net = CanNetwork(sched, f"explicit-{request.node.name}")
+    a, b = SimBus(network=net), SimBus(network=net)
+    a.send(frame())
+    sched.run_until(1_000)
+    assert b.recv() is not None
+    net.close()
