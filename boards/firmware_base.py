@@ -122,6 +122,7 @@ class Board:
         """Boot: enable the receive interrupt (or polling), start the ISRs, send a BOOT heartbeat."""
         self.started = True
         self.boot_us = self.scheduler.now_us
+        self.can.set_acceptance(self._accepted_ids)
         self.can.enable_rx_interrupt()
         t0 = self.scheduler.now_us
         for timer in self._timers:

@@ -314,6 +314,16 @@ class CanController:
             self.bus.set_rx_callback(None)
             self.interrupt_enabled = False
 
+    def set_acceptance(self, arbitration_ids) -> None:
+        """Program the hardware acceptance filters (MCP2515 masks/filters, ECAN mode 0).
+
+        Installed as python-can filters (``bus.set_filters``), so the bus drops other frames
+        before they reach the controller: on ``schmidt-sim`` they raise no interrupt, on
+        ``socketcan`` the kernel filters them. ``accept`` stays as a second, software check.
+        """
+        ids = sorted({int(i) for i in arbitration_ids})
+        self.bus.set_filters([{"can_id": i, "can_mask": 0x7FF, "extended": False} for i in ids])
+
     def _fill_buffers(self) -> None:
         while True:
             msg = self.bus.recv(timeout=0)

@@ -15,7 +15,8 @@ Semantics that differ from a hardware bus, because time is simulated:
 * Received ``can.Message`` objects are **shared read-only**: one Message per frame is built at
   the end of transmission and the same instance goes to every receiver (no per-receiver copy,
   unlike python-can ``virtual``). Receivers must not mutate it; copy it if you need to.
-* ``set_rx_callback(fn)``: ``fn()`` is scheduled at ``PRIO_CAN`` right after each accepted
+* ``set_rx_callback(fn)``: ``fn()`` is called at the frame's end time, once every receiver holds
+  the frame (inside the network's ``PRIO_CAN`` completion event), after each accepted
   delivery — the receive interrupt. Plain python-can buses have no such hook; boards poll.
 * No Notifier threads or ``send_periodic`` inside simulated time (BusABC's thread-based
   periodic tasks would use the wall clock); schedule periodic sends on the scheduler.
@@ -70,6 +71,7 @@ class SimBus(can.BusABC):
         self._rx_queue_size = rx_queue_size
         self.rx_overruns = 0
         self._rx_callback: Callable[[], object] | None = None
+        self._exact_ids: frozenset | None = None
         self._attached = False
         super().__init__(channel=self.channel, can_filters=can_filters, **kwargs)
         self.network.attach(self)
@@ -90,18 +92,30 @@ class SimBus(can.BusABC):
         self.network.submit(self, msg)
 
     # -- receive ----------------------------------------------------------------------------
-    def _deliver(self, msg: can.Message) -> None:
-        """Called by the network at the end of a frame (shared read-only ``msg``)."""
-        if self._filters is not None and not self._matches_filters(msg):
-            return
+    def _apply_filters(self, filters) -> None:
+        """python-can hook: precompute a set when every filter is an exact 11-bit match."""
+        self._exact_ids = None
+        if filters and all(f.get("can_mask") == 0x7FF and not f.get("extended", False) for f in filters):
+            self._exact_ids = frozenset(f["can_id"] for f in filters)
+
+    def _deliver(self, msg: can.Message) -> bool:
+        """Called by the network at the end of a frame (shared read-only ``msg``).
+
+        Returns True when the frame was queued and a receive interrupt is installed: the network
+        then calls :meth:`_fire` once every receiver has the frame, at the frame's end time.
+        """
+        exact = self._exact_ids
+        if exact is not None:
+            if msg.arbitration_id not in exact or msg.is_extended_id:
+                return False
+        elif self._filters is not None and not self._matches_filters(msg):
+            return False
         rx = self._rx
         if self._rx_queue_size is not None and len(rx) >= self._rx_queue_size:
             rx.popleft()
             self.rx_overruns += 1
         rx.append(msg)
-        cb = self._rx_callback
-        if cb is not None:
-            self._scheduler.call_at(self._scheduler.now_us, self._fire, PRIO_CAN, owner=self.name)
+        return self._rx_callback is not None
 
     def _fire(self, now_us: int) -> None:
         cb = self._rx_callback

@@ -49,8 +49,10 @@ __all__ = ["Telescope", "build_network", "resolve_parameters", "open_loop_duty",
 
 #: Board names (scenario ``faults[].board``) in node order.
 BOARD_NAMES = ("ra-axis", "dec-axis", "ra-reader", "dec-reader", "focus")
-#: Plant event period [µs]: the plant is advanced at least this often.
-PLANT_PERIOD_US = 5_000
+#: Plant keep-alive period [µs]: every port advances the plant to the current time before it
+#: reads or writes, so the plant is exact at each ISR; this event only keeps it moving when no
+#: board touches it (a board reset or removed), and bounds the lazy catch-up.
+PLANT_PERIOD_US = 50_000
 ARCSEC_PER_RAD = 648_000.0 / math.pi
 _unique = itertools.count(1)
 

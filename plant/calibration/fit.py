@@ -84,6 +84,7 @@ class Prepared:
     y_dec: np.ndarray
     keep: np.ndarray | None = None
     n_standstill: int = 0
+    position_resolution: float = 0.0
 
     def dec(self, x: np.ndarray) -> np.ndarray:
         """Decimate full-rate column(s) (axis 0) like Matlab ``decimate`` (IIR, zero phase) and keep
@@ -159,9 +160,13 @@ def prepare(
         if n_still:
             keep = np.flatnonzero(mask)
             t_dec, q_dec, dq_dec, y_dec = t_dec[keep], q_dec[keep], dq_dec[keep], y_dec[keep]
+    steps = np.abs(np.diff(record.position))
+    steps = steps[steps > 1e-12 * max(float(np.ptp(record.position)), 1e-300)]
+    resolution = float(steps.min()) if steps.size else 0.0
     return Prepared(
         record=record, t=t, q=q, dq=dq, ddq=ddq, y=y, dt_s=dt, decim=decimate, cutoff_hz=cutoff_hz,
         t_dec=t_dec, q_dec=q_dec, dq_dec=dq_dec, y_dec=y_dec, keep=keep, n_standstill=n_still,
+        position_resolution=resolution,
     )
 
 
