@@ -158,6 +158,17 @@ class Board:
         if was_running:
             self.start()
 
+    def power_off(self) -> None:
+        """Remove the board's power: ISRs stop, outputs go to their reset state (PWM duties 0),
+        nothing is sent or received until :meth:`start` (power on again, cause ``power_on``)."""
+        for timer in self._timers:
+            timer.reset()
+        self.can.reset()
+        for p in self._peripherals():
+            p.reset()
+        self.started = False
+        self.reset_cause = "power_on"
+
     # ------------------------------------------------------------------ CAN
     def _accept(self, arbitration_id: int) -> bool:
         return arbitration_id in self._accepted_ids

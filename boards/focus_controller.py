@@ -77,7 +77,10 @@ class FocusController(Board):
                  on_power: Optional[Callable[[str], None]] = None,
                  step_rate_hz: int = STEP_RATE_HZ, travel_halfsteps: int = TRAVEL_HALFSTEPS,
                  status_period_us: int = 250_000, name: str = "focus") -> None:
-        super().__init__(scheduler, bus, node_id, name=name, background_period_us=status_period_us)
+        # the main loop runs every 5 ms (it also polls CAN on buses without a receive interrupt);
+        # FOCUS_STATUS goes out every status_period_us of it
+        super().__init__(scheduler, bus, node_id, name=name, background_period_us=5_000)
+        self.status_period_us = int(status_period_us)
         if not 0 < step_rate_hz <= 1_000_000:
             raise ValueError("step_rate_hz must be in (0, 1e6]")
         self.step_period_us = int(round(1e6 / step_rate_hz))
@@ -100,6 +103,7 @@ class FocusController(Board):
 
     def _init_focus_state(self) -> None:
         self.pos_halfsteps = 0
+        self._next_status_us = self.status_period_us  # since boot
         self.target_halfsteps = 0
         self.index_seen = False
         self._index_level = False
@@ -128,7 +132,10 @@ class FocusController(Board):
         self._index_level = level
 
     def background(self, now_us: int) -> None:
-        """Every 250 ms: sample the LVDT and send FOCUS_STATUS."""
+        """Main loop (5 ms); every ``status_period_us`` (250 ms): sample the LVDT, send FOCUS_STATUS."""
+        if now_us - self.boot_us < self._next_status_us:
+            return
+        self._next_status_us += self.status_period_us
         self._sample_index()
         lvdt = self.adc.sample("lvdt")
         self.send(proto.focus_status_cob_id(self.node_id),

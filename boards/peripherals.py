@@ -268,6 +268,11 @@ class Adc:
         self.last = {name: 0 for name in self.channels}
 
 
+#: python-can bus classes whose filters act before the receive queue (SimBus: on delivery;
+#: SocketCAN: kernel filters), so ``set_filters`` is a true hardware acceptance filter there.
+FILTER_BEFORE_QUEUE_BUSES = ("SimBus", "SocketcanBus")
+
+
 class CanController:
     """CAN controller (MCP2515 or the PIC18F4480's ECAN in mode 0) on a python-can bus.
 
@@ -322,6 +327,12 @@ class CanController:
         ``socketcan`` the kernel filters them. ``accept`` stays as a second, software check.
         """
         ids = sorted({int(i) for i in arbitration_ids})
+        if type(self.bus).__name__ not in FILTER_BEFORE_QUEUE_BUSES:
+            # python-can applies filters of other interfaces (e.g. ``virtual``) inside ``recv``,
+            # and ``recv(timeout=0)`` returns None at the first filtered-out frame: a polled
+            # controller would then drain one foreign frame per poll and fall behind. There the
+            # software ``accept`` check does the filtering instead.
+            return
         self.bus.set_filters([{"can_id": i, "can_mask": 0x7FF, "extended": False} for i in ids])
 
     def _fill_buffers(self) -> None:

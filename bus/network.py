@@ -266,6 +266,7 @@ class CanNetwork:
         self.max_latency_us: dict[int, int] = {}
         self._window_busy: dict[int, int] = {}
         self.closed = False
+        self._taps: list = []
         self._owner = f"can:{channel}"
         _REGISTRY[channel] = self
 
@@ -385,6 +386,8 @@ class CanNetwork:
         msg = can.Message(timestamp=now_us / 1e6, arbitration_id=pending.arbitration_id,
                           is_extended_id=False, data=bytearray(pending.data),
                           channel=self.channel, is_rx=True)
+        for tap in self._taps:
+            tap(msg)
         interrupts = []
         for bus in self._buses:
             if bus is not sender:
@@ -403,6 +406,12 @@ class CanNetwork:
         for bus in interrupts:
             bus._fire(now_us)
         self._arbitrate(now_us)
+
+    def add_tap(self, fn) -> None:
+        """Call ``fn(msg)`` with every frame at the end of its transmission (a bus monitor,
+        like ``candump`` on a real bus). ``msg`` is shared read-only; the tap sees every frame
+        whatever the receivers' acceptance filters."""
+        self._taps.append(fn)
 
     @property
     def busy(self) -> bool:

@@ -960,6 +960,29 @@ def decode(cob_id: int, data) -> NamedTuple:
     return frame
 
 
+def dbc_signals(cob_id: int, frame) -> dict:
+    """Raw DBC signal values of a decoded frame (what cantools returns with ``scaling=False``).
+
+    Flags fields expand into one signal per bit; the ``AXIS_COMMAND`` value goes to the signal
+    its command selects. Used to check that the DBC and the struct codecs agree.
+    """
+    _, spec, node = COB_TABLE[cob_id]
+    dt = getattr(frame, "device_type", None)
+    if dt is None:
+        dt = DeviceType.HOST if spec.sender == "host" else DEVICE_TYPE_OF_NODE[node]
+    sig = {"device_type": int(dt)}
+    for f in spec.fields:
+        v = int(getattr(frame, f.name))
+        if f.kind == "flags":
+            for i, flag in enumerate(f.flag_names):
+                sig[flag] = (v >> i) & 1
+        elif spec.name == "AXIS_COMMAND" and f.name == "value":
+            sig[AXIS_COMMAND_VALUE_SIGNALS[frame.cmd][0]] = v
+        else:
+            sig[f.dbc_name or f.name] = v
+    return sig
+
+
 def format_frame(cob_id: int, data) -> str:
     """One-line human-readable rendering for logs, never raising."""
     try:

@@ -110,7 +110,8 @@ class HostClient:
     adc_to_current_a: Callable[[int], float] = lambda c: c * (5.0 / 1023) / 0.1
     logs: object = None
 
-    POWER_ON_US = 100_000
+    BOOT_US = 20_000       #: wait after power-on before the health-check PING [µs] (assumed)
+    POWER_ON_US = 100_000  #: time the boards have to answer the PING [µs] (assumed)
     QEI_WRAP = 1 << 24
 
     def __post_init__(self) -> None:
@@ -231,13 +232,16 @@ class HostClient:
             self.logs.command(self.scheduler.now_us, target, what, detail)
 
     def power_on(self) -> Health:
-        """Ping every board and wait ``POWER_ON_US`` of simulated time for their heartbeats.
+        """Let the boards boot (``BOOT_US``), ping them all and wait ``POWER_ON_US`` of
+        simulated time for the heartbeats that answer the ping.
 
         Returns
         -------
         Health
             ``ok`` is false and ``missing`` names each board that did not answer in time.
         """
+        # let the boards finish booting (their boot heartbeats are not an answer to the ping)
+        self.scheduler.run_until(self.scheduler.now_us + self.BOOT_US)
         t0 = self.scheduler.now_us
         self._send(P.host_broadcast_cob_id(), P.encode_host_broadcast(P.BroadcastCommand.PING, 0, P.ResetCause.POWER_ON), "all", "PING",
                    "power-on health check")

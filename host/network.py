@@ -154,10 +154,9 @@ class Telescope:
             # a frame with the wrong device type byte and a short DLC: the board must count it
             self.client.send_raw(cob, bytes([0xEE, 0x42, 0x00]), fault.board)
         elif fault.kind == "board_reset":
-            board.reset("watchdog")
-            board.start()
+            board.reset("watchdog")  # a running board boots again by itself
         elif fault.kind == "remove_board":
-            board.reset("power_on")  # power removed: firmware stops, no frames
+            board.power_off()  # firmware stops, no frames; the host notices missing heartbeats
             self.removed.add(fault.board)
         if self.client.logs:
             self.client.logs.error(now_us, fault.board, "injected-fault", fault.kind)

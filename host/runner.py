@@ -131,9 +131,19 @@ def run_scenario(
             row += [client.focus.pos_halfsteps, client.focus.lvdt_adc]
             logs.sensor(now_us, tuple(row))
 
+    candump = None
+    if out_dir is not None and tel.network is not None:
+        # every frame on the bus, in Linux candump log format (`cantools decode` reads it)
+        candump = (out_dir / "candump.log").open("w", encoding="ascii", buffering=1 << 16)
+        chan = "can0"
+
+        def tap(msg) -> None:
+            candump.write(f"({msg.timestamp:.6f}) {chan} {msg.arbitration_id:03X}#{bytes(msg.data).hex().upper()}\n")
+
+        tel.network.add_tap(tap)
     errors: list[str] = []
     seg_spans: list[dict] = []
-    total_us = int(round(scenario.duration_s * 1e6)) + client.POWER_ON_US
+    total_us = int(round(scenario.duration_s * 1e6)) + client.BOOT_US + client.POWER_ON_US
     try:
         healthy = client.power_on()
         if not healthy.ok:
@@ -171,6 +181,8 @@ def run_scenario(
     finally:
         if logs:
             logs.close()
+        if candump:
+            candump.close()
         tel.close()
 
     window_ms = scenario.report.velocity_window_ms
@@ -217,6 +229,8 @@ def run_scenario(
     files: list[Path] = []
     if out_dir is not None:
         files += list(logs.paths.values())
+        if candump:
+            files.append(out_dir / "candump.log")
         files += list(write_reports(out_dir, report))
         if plots and traces:
             files += plot_axes(out_dir, traces, segments, window_ms)

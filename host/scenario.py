@@ -246,7 +246,9 @@ def parse_scenario(text: str, path: str = "<string>") -> Scenario:
     try:
         return Scenario.model_validate({**data, "source_path": path})
     except ValidationError as exc:
-        err = exc.errors()[0]
+        # an unknown key first: a misspelt key is usually why a required one is "missing"
+        errs = sorted(exc.errors(), key=lambda e: e["type"] != "extra_forbidden")
+        err = errs[0]
         loc = tuple(err["loc"])
         line = None
         for n in range(len(loc), 0, -1):

@@ -39,18 +39,7 @@ ALL_FRAMES = st.sampled_from(sorted(p.COB_TABLE)).flatmap(
 
 def to_signals(cob, frame):
     """Our decoded tuple -> raw DBC signal values."""
-    _, spec, node = p.COB_TABLE[cob]
-    sig = {"device_type": int(getattr(frame, "device_type", device_types(spec, node)[0]))}
-    for f in spec.fields:
-        v = int(getattr(frame, f.name))
-        if f.kind == "flags":
-            for i, flag in enumerate(f.flag_names):
-                sig[flag] = (v >> i) & 1
-        elif spec.name == "AXIS_COMMAND" and f.name == "value":
-            sig[p.AXIS_COMMAND_VALUE_SIGNALS[frame.cmd][0]] = v
-        else:
-            sig[f.dbc_name or f.name] = v
-    return sig
+    return p.dbc_signals(cob, frame)
 
 
 def encode_ours(cob, frame):

@@ -5,8 +5,9 @@ constant load offset) on the trajectory a real calibration run uses: a velocity 
 positive direction (0.05 → 0.8 rad/s), the same back in the negative direction, and a slow
 back-and-forth segment with several velocity reversals. A discrete 1 kHz position controller
 (PD with acceleration feed-forward, one-sample output delay) computes the drive torque from the
-quantized encoder position; the record holds that torque plus measurement noise and the quantized
-position — what a drive's own log would hold.
+quantized encoder position; the record holds that torque (averaged over the sample interval
+centred on each sample, as a filtered current measurement would be) plus measurement noise, and the
+quantized position — what a drive's own log would hold.
 
 One effect is switched on (``effect``), which the fit is not told about:
 
@@ -241,7 +242,10 @@ def generate_record(
         qm_prev = qm
         u_prev = u
     rng = np.random.default_rng(seed)
-    torque = tau + rng.normal(0.0, B["torque_noise_nm"], n)
+    # the logged torque is the drive torque averaged over the sample interval centred on t_k
+    # (as a current ADC with an anti-alias filter would log it): tau[k] acts over [t_k, t_k+1)
+    logged = 0.5 * (tau + np.concatenate([[tau[0]], tau[:-1]]))
+    torque = logged + rng.normal(0.0, B["torque_noise_nm"], n)
     position = q_meas
     if delay_s > 0:
         d = int(round(delay_s / dt))
