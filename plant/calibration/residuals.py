@@ -81,7 +81,7 @@ def _lomb(x: np.ndarray, r: np.ndarray, freqs: np.ndarray) -> np.ndarray:
     var = float(r @ r)
     if var <= 0 or x.size < 10:
         return np.zeros_like(freqs)
-    p = signal.lombscargle(x, r, 2 * np.pi * freqs, precenter=False)
+    p = signal.lombscargle(x, r, 2 * np.pi * freqs)
     return np.clip(2.0 * p / var, 0.0, 1.0)
 
 
