@@ -142,6 +142,7 @@ def run_scenario(
 
         tel.network.add_tap(tap)
     errors: list[str] = []
+    pacer = None
     seg_spans: list[dict] = []
     total_us = int(round(scenario.duration_s * 1e6)) + client.BOOT_US + client.POWER_ON_US
     try:
@@ -152,6 +153,10 @@ def run_scenario(
                 + f" within {client.POWER_ON_US // 1000} ms"
             )
         _schedule_faults(tel, scenario)
+        if scenario.bus.interface == "socketcan":
+            from host.realtime import RealtimePacer
+
+            pacer = RealtimePacer(start_sim_us=sched.now_us)
         sched.call_every(SAMPLE_PERIOD_US, sample, start_us=sched.now_us + SAMPLE_PHASE_US,
                          priority=PRIO_HOST, owner="host-recorder")
         for seg in scenario.segments:
@@ -164,6 +169,13 @@ def run_scenario(
                 client.command_focus_move_to(seg.focus_halfsteps)
             t_end = t0 + int(round(seg.duration_s * 1e6))
             while sched.now_us < t_end:
+                if pacer is not None:  # a real bus: simulated time must not outrun the wall clock
+                    nxt = min(t_end, sched.now_us + pacer.step_us)
+                    pacer.wait_for(nxt)
+                    sched.run_until(nxt)
+                    if progress and sched.now_us % CHUNK_US < pacer.step_us:
+                        progress(sched.now_us / 1e6, total_us / 1e6)
+                    continue
                 sched.run_until(min(t_end, sched.now_us + CHUNK_US))
                 if progress:
                     progress(sched.now_us / 1e6, total_us / 1e6)
@@ -225,6 +237,7 @@ def run_scenario(
         "bus_stats": tel.bus_stats(),
         "boards": tel.board_summary(),
         "errors": errors + client.error_lines(),
+        "realtime": pacer.stats() if pacer is not None else None,
     }
     files: list[Path] = []
     if out_dir is not None:
