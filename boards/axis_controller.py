@@ -40,10 +40,10 @@ __all__ = ["AxisController", "AxisMode", "PRESET_RATES_ARCSEC_S", "QEI_COUNTS_PE
 class AxisMode:
     """Axis modes (byte 1 of AXIS_STATUS) and AXIS_COMMAND command codes."""
 
-    STOP, SLEW, SET, GUIDE, FINE, TRACK, VELOCITY, OPEN_LOOP, LIMIT_STOP = range(9)
-    SET_KP, SET_KI = 8, 9        # command codes (not modes)
-    NAMES = ("STOP", "SLEW", "SET", "GUIDE", "FINE", "TRACK", "VELOCITY", "OPEN_LOOP",
-             "LIMIT_STOP")
+    # plain ints for the ISR's speed, taken from the protocol's enums (one source of truth)
+    STOP, SLEW, SET, GUIDE, FINE, TRACK, VELOCITY, OPEN_LOOP, LIMIT_STOP = (int(m) for m in proto.AxisMode)
+    SET_KP, SET_KI = int(proto.AxisCommand.SET_KP), int(proto.AxisCommand.SET_KI)  # commands, not modes
+    NAMES = tuple(m.name for m in proto.AxisMode)
 
 
 #: Incremental-encoder counts per axis revolution: 4.608e6 counts/rev (Gurley 8x60, §3.2)
@@ -81,8 +81,12 @@ PRESET_RATES_ARCSEC_S = {
 DEFAULT_KP = 4.17e-4      # duty per (″/s)
 DEFAULT_KI = 4.63e-5      # duty per (″/s) per tick
 
-STATUS_LIMIT, STATUS_ANTIWINDUP, STATUS_OVERCURRENT, STATUS_FAULT = 0x01, 0x02, 0x04, 0x08
-LIMIT_LOW, LIMIT_HIGH, LIMIT_INVALID = 0x01, 0x02, 0x04
+STATUS_LIMIT, STATUS_ANTIWINDUP, STATUS_OVERCURRENT, STATUS_FAULT = (
+    int(f) for f in (proto.AxisStatusFlags.LIMIT_STOP, proto.AxisStatusFlags.ANTI_WINDUP,
+                     proto.AxisStatusFlags.OVER_CURRENT, proto.AxisStatusFlags.FAULT))
+LIMIT_LOW, LIMIT_HIGH, LIMIT_INVALID = (
+    int(f) for f in (proto.LimitFlags.LOW_SOFT_LIMIT, proto.LimitFlags.HIGH_SOFT_LIMIT,
+                     proto.LimitFlags.POSITION_INVALID))
 
 
 class AxisController(Board):

@@ -15,6 +15,7 @@ import can
 from bus import protocol as P
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_HOST, Scheduler
+from host.report import ARCSEC_PER_COUNT
 
 __all__ = ["HostClient", "Health", "AxisState", "NODE_NAMES", "AXIS_NODES"]
 
@@ -312,6 +313,3 @@ class HostClient:
         if self._poll_event is not None:
             self.scheduler.cancel(self._poll_event)
 
-
-#: Incremental encoder resolution at the axis [arcsec/count].
-ARCSEC_PER_COUNT = 1_296_000.0 / (4_608_000 * 24.5)
