@@ -21,12 +21,12 @@ def add_subparser(subparsers: argparse._SubParsersAction) -> None:
         description="Baseline least-squares fit, residual analysis, greedy effect selection with a "
         "significance rule; writes report.json, report.md, plots and a calibrated parameter file.",
     )
-    p.add_argument("record", help="training record: EMPS .mat or CSV (time_s, torque_nm, position_rad[, velocity_rad_s, current_a])")
+    p.add_argument("record", help="training record: EMPS .mat, a schmidt-fil sensor.log, or CSV (time_s, torque_nm, position_rad[, velocity_rad_s, current_a])")
     p.add_argument("--validate", metavar="RECORD", help="held-out record for validation (EMPS: DATA_EMPS_PULSES.mat)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
     p.add_argument("--columns", metavar="MAP", help="CSV column mapping canonical=name,... e.g. time_s=t,torque_nm=tau")
     p.add_argument("--linear", action="store_true", help="CSV position in m and force in N (linear drive)")
-    p.add_argument("--axis", default="ra", help="axis of the plant parameter file that receives the model (default ra)")
+    p.add_argument("--axis", default="ra", help="axis: which sensor.log columns to read, and which axis of the plant parameter file receives the model (default ra)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.set_defaults(func=run)
 

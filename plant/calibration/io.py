@@ -14,6 +14,8 @@ Formats
   ``velocity_rad_s``, ``current_a``. ``columns={"time_s": "t", ...}`` maps the canonical names
   to the file's names (CLI: ``--columns time_s=t,torque_nm=tau``). With ``linear=True`` the
   columns hold metres and newtons (names unchanged, or mapped).
+* The ``sensor.log`` that ``schmidt-fil run`` writes (:func:`load_sensor_log`): torque from
+  the logged motor currents, position from the QEI counts; ``--axis`` picks RA or DEC.
 """
 
 from __future__ import annotations
@@ -25,7 +27,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Record", "RecordError", "load_record", "load_emps", "load_csv", "parse_columns", "write_csv"]
+__all__ = ["Record", "RecordError", "load_record", "load_emps", "load_csv", "load_sensor_log", "parse_columns",
+           "write_csv"]
 
 REQUIRED_COLUMNS = ("time_s", "torque_nm", "position_rad")
 OPTIONAL_COLUMNS = ("velocity_rad_s", "current_a")
@@ -244,11 +247,73 @@ def load_csv(path: str | Path, columns: dict[str, str] | None = None, linear: bo
     )
 
 
-def load_record(path: str | Path, columns: dict[str, str] | None = None, linear: bool = False) -> Record:
-    """Load a record by extension: ``.mat`` → :func:`load_emps`, anything else → :func:`load_csv`."""
+SENSOR_LOG_MAGIC = "# schmidt-fil sensor log"
+
+
+def load_sensor_log(path: str | Path, axis: str = "ra", parameter_file: str | Path | None = None) -> Record:
+    """Load the sensor-data log that ``schmidt-fil run`` writes (``sensor.log``) as a record.
+
+    The drive torque at the axis is what the operator can compute from the logged shunt
+    currents: ``N·K·(i_a − i_b)`` (motor A pushes +, motor B pushes −; gear losses and rotor
+    inertia neglected), with K and N from the plant parameter file (default: the packaged one,
+    i.e. the constants the emulator used unless the scenario overrode them). Position is the
+    QEI count × 2π / (counts per rev × roller ratio). Resolution is the telescope's: 10-bit
+    shunt ADC (≈ 49 mA, ≈ 6 N·m at the axis) and 0.01148″ per count.
+
+    Raises
+    ------
+    RecordError
+        Not a sensor log, unknown axis, or too few rows.
+    """
+    from plant.params import load_parameters
+
+    path = Path(path)
+    lines = path.read_text(encoding="ascii", errors="replace").splitlines()
+    if not lines or not lines[0].startswith(SENSOR_LOG_MAGIC):
+        raise RecordError(f"{path}: not a schmidt-fil sensor log (first line must start with {SENSOR_LOG_MAGIC!r})")
+    header = next((l[1:].split() for l in lines[1:3] if l.startswith("# t_s")), None)
+    if header is None:
+        raise RecordError(f"{path}: no '# t_s ...' column header")
+    need = [f"{axis}_qei_counts", f"{axis}_current_a_a", f"{axis}_current_b_a"]
+    missing = [c for c in need if c not in header]
+    if missing:
+        raise RecordError(f"{path}: axis {axis!r}: missing columns {missing}; expected axis 'ra' or 'dec'")
+    idx = [header.index(c) for c in ["t_s"] + need]
+    rows = [l.split() for l in lines if l and not l.startswith("#")]
+    if len(rows) < 50:
+        raise RecordError(f"{path}: {len(rows)} rows; a calibration needs at least 50")
+    data = np.array([[float(r[i]) for i in idx] for r in rows])
+    ap = load_parameters(parameter_file).axes[axis]
+    k, n = ap.motor.torque_constant_nm_a, ap.gear.ratio
+    counts_per_rev = ap.encoders.incremental_counts_per_rev * ap.encoders.roller_ratio
+    t = data[:, 0]
+    _check_uniform(path, t)
+    return Record(
+        name=f"{path.parent.name}/{path.name}:{axis}",
+        t_s=t - t[0],
+        position=data[:, 1] * 2.0 * np.pi / counts_per_rev,
+        torque=n * k * (data[:, 2] - data[:, 3]),
+        current_a=data[:, 2] - data[:, 3],
+        linear=False,
+        source=str(path),
+        extra={"format": "sensor_log", "axis": axis, "torque_constant_nm_a": k, "gear_ratio": n},
+    )
+
+
+def load_record(path: str | Path, columns: dict[str, str] | None = None, linear: bool = False,
+                axis: str = "ra") -> Record:
+    """Load a record: ``.mat`` → :func:`load_emps`; a schmidt-fil ``sensor.log`` →
+    :func:`load_sensor_log` (``axis`` selects RA or DEC); anything else → :func:`load_csv`."""
     path = Path(path)
     if path.suffix.lower() == ".mat":
         return load_emps(path)
+    try:
+        with path.open("r", encoding="ascii", errors="replace") as f:
+            first = f.readline()
+    except OSError as exc:
+        raise RecordError(f"{path}: cannot read: {exc.strerror}") from None
+    if first.startswith(SENSOR_LOG_MAGIC):
+        return load_sensor_log(path, axis=axis)
     return load_csv(path, columns=columns, linear=linear)
 
 

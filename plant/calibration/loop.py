@@ -442,6 +442,10 @@ def run_loop(
             c["delta_bic"] = delta_bic(cur.rss, c["fit"].rss, c["dk"], cur.n_eff)
             c["explained_pct"] = 100.0 * (cur.rss - c["fit"].rss) / cur.rss
         cands.sort(key=lambda c: c["delta_bic"])
+        log.append(
+            f"step {len(accepted) + 1} candidates (ΔBIC_eff, % explained, before joint refit): "
+            + "; ".join(f"{c['kind']} {c['delta_bic']:.1f} {c['explained_pct']:.1f} %" for c in cands)
+        )
         chosen = None
         for c in cands:
             label = c["kind"]

@@ -213,13 +213,13 @@ def calibrate(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     cfg = config or LoopConfig()
-    rec = load_record(record_path, columns=columns, linear=linear)
+    rec = load_record(record_path, columns=columns, linear=linear, axis=axis)
     linear = rec.linear
     prep = prepare(rec)
     prep_val = None
     rec_val = None
     if validate_path is not None:
-        rec_val = load_record(validate_path, columns=columns, linear=linear)
+        rec_val = load_record(validate_path, columns=columns, linear=linear, axis=axis)
         prep_val = prepare(rec_val)
     result = run_loop(prep, prep_val, cfg, linear=linear)
     from plant.calibration.model_file import write_model_file
@@ -283,7 +283,7 @@ def calibrate(
             report["closed_loop"] = cl
     if plots:
         report["plots"] = _plots(out, prep, result, prep_val)
-    (out / "report.json").write_text(json.dumps(_jsonable(report), indent=2, allow_nan=False if False else True))
+    (out / "report.json").write_text(json.dumps(_jsonable(report), indent=2, allow_nan=True))
     (out / "report.md").write_text(_markdown(report))
     return report
 

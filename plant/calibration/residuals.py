@@ -19,7 +19,6 @@ effective sample size ``n_eff`` because the residuals are autocorrelated.
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 from scipy import signal
@@ -214,4 +213,3 @@ def whiteness(resid: np.ndarray) -> float:
     return float(r[1:] @ r[:-1] / d) if d > 0 else 0.0
 
 
-_ = math
