@@ -31,7 +31,6 @@ import can
 
 from bus.errors import BusError
 from bus.network import CanNetwork, get_network
-from bus.scheduler import PRIO_CAN
 
 __all__ = ["SimBus"]
 
@@ -135,7 +134,7 @@ class SimBus(can.BusABC):
         return None
 
     def set_rx_callback(self, fn: Callable[[], object] | None) -> None:
-        """Install the receive interrupt: ``fn()`` runs at ``PRIO_CAN`` after each delivery."""
+        """Install the receive interrupt: ``fn()`` runs at the end of each accepted delivery."""
         self._rx_callback = fn
 
     @property

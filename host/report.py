@@ -25,7 +25,6 @@ How velocity and errors are measured (this text is also written into every repor
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import dataclass
 from pathlib import Path
 

@@ -200,7 +200,7 @@ def run_scenario(
     window_ms = scenario.report.velocity_window_ms
     traces = {axis: rec.trace(axis) for axis in ("ra", "dec")} if rec.t_us else {}
     segments = []
-    rated = tel.params.axes["ra"].motor.rated_current_a if hasattr(tel.params.axes["ra"], "motor") else 6.0
+    rated = tel.params.axes["ra"].motor.rated_current_a
     for span in seg_spans:
         seg = span["seg"]
         for axis in span["axes"]:
