@@ -125,6 +125,12 @@ class HostClient:
         self._errors: list[str] = []
         self._last_state: dict[int, int] = {}
         self._last_mode: dict[str, int] = {}
+        # frame type -> handler, built once (not looked up by name for every frame)
+        self._handlers = {
+            P.AxisStatus: self._on_AxisStatus, P.AxisAux: self._on_AxisAux, P.Position: self._on_Position,
+            P.FocusStatus: self._on_FocusStatus, P.Heartbeat: self._on_Heartbeat, P.Fault: self._on_Fault,
+            P.Limit: self._on_Limit,
+        }
         if hasattr(self.bus, "set_rx_callback"):
             self.bus.set_rx_callback(self.poll)
             self._poll_event = None
@@ -150,9 +156,8 @@ class HostClient:
             self.malformed_frames += 1
             self._error(now, f"0x{msg.arbitration_id:03X}", "malformed-frame", str(exc))
             return
-        kind = type(frame).__name__
-        handler = getattr(self, f"_on_{kind}", None)
-        if handler is not None:
+        handler = self._handlers.get(type(frame))
+        if handler is not None:  # frames the host does not consume (commands) have none
             handler(msg.arbitration_id, frame, now)
 
     def _on_AxisStatus(self, cob_id: int, f, now: int) -> None:

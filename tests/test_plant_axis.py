@@ -224,3 +224,16 @@ def test_perfect_switch_turns_off_imperfections():
     ax.advance_to(10_000_000)
     w = ax.axis_rate_rad_s
     assert sum(ax.gear_torque_nm) == pytest.approx(6700.0 * w, rel=1e-4)
+
+
+def test_mesh_torque_law():
+    """mesh_torque_nm (the law the substep inlines): zero in the dead zone, spring plus damper
+    outside it, and the teeth only push."""
+    from plant.axis import AxisPlant
+
+    m = AxisPlant.mesh_torque_nm
+    hb, kt, ct = 1e-3, 1e6, 1e3
+    assert m(0.5e-3, 5.0, kt, ct, hb) == 0.0 and m(-0.9e-3, -5.0, kt, ct, hb) == 0.0
+    assert m(3e-3, 0.5, kt, ct, hb) == pytest.approx(kt * 2e-3 + ct * 0.5)
+    assert m(-3e-3, -0.5, kt, ct, hb) == pytest.approx(-(kt * 2e-3 + ct * 0.5))
+    assert m(2e-3, -1e4, kt, ct, hb) == 0.0 and m(-2e-3, 1e4, kt, ct, hb) == 0.0
