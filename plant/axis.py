@@ -31,13 +31,18 @@ Integrator: second-order exponential midpoint (shared/notes/FACTS.md), per subst
    of σ0 z, σ1 dz/dt = σ1 Δz/h, and σ2 trapezoidally (implicit); mesh torques and additive
    effects at the midpoint; angles by the trapezoid rule.
 
-Pure Python floats and ``math``; no wall clock, no threads, deterministic.
+The substeps run in :mod:`plant.kernel`: plain Python functions of float tuples, compiled with
+numba when it is installed (``SCHMIDT_FIL_JIT=0`` runs them interpreted). No wall clock, no
+threads, deterministic. Parameters are packed once at construction: change them through
+:func:`plant.params.load_parameters` overrides and build a new plant, not by assigning
+attributes.
 """
 
 from __future__ import annotations
 
 import math
 
+from plant import kernel
 from plant.friction import LuGre, lugre_from_parameters
 from plant.params import AxisParameters
 
@@ -129,7 +134,10 @@ class AxisPlant:
         self._roller = enc.roller_ratio
         self._enc_err_rad = 0.0 if self.perfect else enc.incremental_error_arcsec / ARCSEC_PER_RAD
         self._abs_counts = 1 << enc.absolute_bits
-        self._coef_cache: dict[int, tuple] = {}
+        self._p = kernel.pack_parameters(
+            n=self._n, jm=self._jm, cm=self._cm, k=self._k, kt=self._kt, ct=self._ct, hb=self._hb,
+            j=self._j, r=self._r, l=self._l, vs=self._vs, friction=self.friction,
+            perfect=self.perfect, rated=self._rated)
         self.now_us = 0
         self.duty_a = 0.0
         self.duty_b = 0.0
@@ -180,45 +188,28 @@ class AxisPlant:
 
     # ------------------------------------------------------------------ integration
 
-    @staticmethod
-    def mesh_torque_nm(d_rad: float, rel_rate_rad_s: float, kt: float, ct: float, hb: float) -> float:
-        """Torque one gear train applies to the axis (the law ``_substep`` inlines).
+    #: The torque one gear train applies to the axis: :func:`plant.kernel.mesh_torque_nm`.
+    mesh_torque_nm = staticmethod(kernel.mesh_torque_nm)
 
-        Parameters
-        ----------
-        d_rad : float
-            Motor angle reflected to the axis minus the axis angle [rad].
-        rel_rate_rad_s : float
-            The same difference of rates [rad/s].
-        kt, ct : float
-            Mesh stiffness [N·m/rad] and damping [N·m·s/rad] of the train.
-        hb : float
-            Half the backlash at the axis [rad].
+    def state_tuple(self) -> tuple:
+        """The kernel state ``X`` (see :mod:`plant.kernel`): the 9 states plus the step memory."""
+        return (self.axis_angle_rad, self.axis_rate_rad_s, self.z_rad,
+                self.motor_a_angle_rad, self.motor_a_rate_rad_s, self.current_a_a,
+                self.motor_b_angle_rad, self.motor_b_rate_rad_s, self.current_b_a,
+                self._a_prev, self._load_prev)
 
-        Returns
-        -------
-        float
-            0 inside the dead zone; outside it, spring plus damper, clipped so that the teeth
-            only push (never pull) [N·m].
-        """
-        if d_rad > hb:
-            return max(0.0, kt * (d_rad - hb) + ct * rel_rate_rad_s)
-        if d_rad < -hb:
-            return min(0.0, kt * (d_rad + hb) + ct * rel_rate_rad_s)
-        return 0.0
-
-    def _coefs(self, h_us: int) -> tuple:
-        c = self._coef_cache.get(h_us)
-        if c is None:
-            h = h_us * 1e-6
-            rl = self._r / self._l
-            er = math.exp(-rl * h)
-            c = (h, 0.5 * h, rl, er, (1.0 - er) / (rl * h))
-            self._coef_cache[h_us] = c
-        return c
+    def _set_state(self, X: tuple) -> None:
+        (self.axis_angle_rad, self.axis_rate_rad_s, self.z_rad,
+         self.motor_a_angle_rad, self.motor_a_rate_rad_s, self.current_a_a,
+         self.motor_b_angle_rad, self.motor_b_rate_rad_s, self.current_b_a,
+         self._a_prev, self._load_prev) = X
 
     def advance_to(self, t_us: int) -> None:
         """Integrate from ``now_us`` to ``t_us`` in substeps of at most ``max_substep_us``.
+
+        The substeps run in :mod:`plant.kernel` (numba-compiled when available). With additive
+        load effects (Python objects) the substep loop runs here instead, calling the kernel's
+        two stages and evaluating the effects at each midpoint.
 
         Parameters
         ----------
@@ -232,8 +223,10 @@ class AxisPlant:
         """
         t_us = int(t_us)
         now = self.now_us
-        if t_us < now:
-            raise ValueError(f"{self.name}: advance_to({t_us}) is before now_us={now}")
+        if t_us <= now:
+            if t_us < now:
+                raise ValueError(f"{self.name}: advance_to({t_us}) is before now_us={now}")
+            return
         if (self.duty_a == 0.0 and self.duty_b == 0.0 and self.axis_rate_rad_s == 0.0
                 and self.motor_a_rate_rad_s == 0.0 and self.motor_b_rate_rad_s == 0.0
                 and self.current_a_a == 0.0 and self.current_b_a == 0.0 and self.z_rad == 0.0
@@ -244,306 +237,54 @@ class AxisPlant:
             # bit; skipping it is exact (an axis that never moved, e.g. DEC while RA tracks).
             self.now_us = t_us
             return
-        step = self.max_substep_us
-        step_fn = self._substep_rigid if self.rigid else self._substep
-        while now < t_us:
-            h_us = t_us - now
-            if h_us > step:
-                h_us = step
-            step_fn(now, h_us)
-            now += h_us
-            self.now_us = now
-
-    def _load(self, th: float, w: float, t_s: float) -> float:
-        total = 0.0
-        for e in self._additive:
-            total += e.torque_nm(th, w, t_s)
-        return total
-
-    def _substep(self, t0_us: int, h_us: int) -> None:
-        h, hh, rl, er, fr = self._coefs(h_us)
-        fr_ = self.friction
-        s0 = fr_.sigma0_nm_rad
-        s1 = fr_.sigma1_nm_s_rad
-        n_inv = self._inv_n
-        jm = self._jm
-        cm = self._cm
-        k = self._k
-        kt = self._kt
-        ct = self._ct
-        hb = self._hb
-        j = self._j
-        th = self.axis_angle_rad
-        w = self.axis_rate_rad_s
-        z = self.z_rad
-        pa = self.motor_a_angle_rad
-        pb = self.motor_b_angle_rad
-        wa = self.motor_a_rate_rad_s
-        wb = self.motor_b_rate_rad_s
-        ia = self.current_a_a
-        ib = self.current_b_a
-
-        # ---- stage 1: predictor to the midpoint
-        # The mesh torque of each train (spring kt with dead zone ±hb plus damping ct, pushing
-        # only, see mesh_torque_nm) is inlined here and in stage 2 on purpose: this is the hot
-        # loop and a call per train and stage costs ~10 % of the plant's time.
-        d = pa * n_inv - th
-        if d > hb:
-            ta = kt * (d - hb) + ct * (wa * n_inv - w)
-            if ta < 0.0:
-                ta = 0.0
-        elif d < -hb:
-            ta = kt * (d + hb) + ct * (wa * n_inv - w)
-            if ta > 0.0:
-                ta = 0.0
+        if self._additive:
+            out = self._run_with_effects(now, t_us)
         else:
-            ta = 0.0
-        d = pb * n_inv - th
-        if d > hb:
-            tb = kt * (d - hb) + ct * (wb * n_inv - w)
-            if tb < 0.0:
-                tb = 0.0
-        elif d < -hb:
-            tb = kt * (d + hb) + ct * (wb * n_inv - w)
-            if tb > 0.0:
-                tb = 0.0
-        else:
-            tb = 0.0
-        if self.perfect:
-            s2 = fr_.sigma2_pos_nm_s_rad if w >= 0.0 else fr_.sigma2_neg_nm_s_rad
-            f = s2 * w
-        else:
-            a = self._a_prev
-            x = a * hh
-            if x > 0.0:
-                zs = w / a
-                om = -math.expm1(-x)
-                zh = zs + (z - zs) * (1.0 - om)
-                zbar = zs + (z - zs) * om / x
-            else:
-                zh = z + hh * w
-                zbar = z + 0.5 * hh * w
-            s2 = fr_.sigma2_pos_nm_s_rad if w >= 0.0 else fr_.sigma2_neg_nm_s_rad
-            f = s0 * zbar + s1 * (zh - z) / hh + s2 * w
-        w_h = w + hh * (ta + tb - f - self._load_prev) / j
-        wa_h = wa + hh * (k * ia - ta * n_inv - cm * wa) / jm
-        wb_h = wb + hh * (-k * ib - tb * n_inv - cm * wb) / jm
-        th_h = th + hh * w
-        pa_h = pa + hh * wa
-        pb_h = pb + hh * wb
-
-        # ---- stage 2: full step with coefficients frozen at the midpoint
-        d = pa_h * n_inv - th_h
-        if d > hb:
-            ta = kt * (d - hb) + ct * (wa_h * n_inv - w_h)
-            if ta < 0.0:
-                ta = 0.0
-        elif d < -hb:
-            ta = kt * (d + hb) + ct * (wa_h * n_inv - w_h)
-            if ta > 0.0:
-                ta = 0.0
-        else:
-            ta = 0.0
-        d = pb_h * n_inv - th_h
-        if d > hb:
-            tb = kt * (d - hb) + ct * (wb_h * n_inv - w_h)
-            if tb < 0.0:
-                tb = 0.0
-        elif d < -hb:
-            tb = kt * (d + hb) + ct * (wb_h * n_inv - w_h)
-            if tb > 0.0:
-                tb = 0.0
-        else:
-            tb = 0.0
-        load = self._load(th_h, w_h, (t0_us + 0.5 * h_us) * 1e-6) if self._additive else 0.0
-
-        # currents: exact exponential with ω frozen, diode clamp at 0
-        r = self._r
-        iss = (self.duty_a * self._vs - k * wa_h) / r
-        ia1 = iss + (ia - iss) * er
-        if ia1 >= 0.0:
-            ia_m = iss + (ia - iss) * fr
-        elif ia > 0.0:
-            tz = math.log((ia - iss) / (-iss)) / rl
-            ia_m = (iss * tz + ia / rl) / h
-            ia1 = 0.0
-        else:
-            ia1 = ia_m = 0.0
-        iss = (self.duty_b * self._vs + k * wb_h) / r
-        ib1 = iss + (ib - iss) * er
-        if ib1 >= 0.0:
-            ib_m = iss + (ib - iss) * fr
-        elif ib > 0.0:
-            tz = math.log((ib - iss) / (-iss)) / rl
-            ib_m = (iss * tz + ib / rl) / h
-            ib1 = 0.0
-        else:
-            ib1 = ib_m = 0.0
-
-        wa1 = wa + h * (k * ia_m - ta * n_inv - cm * wa_h) / jm
-        wb1 = wb + h * (-k * ib_m - tb * n_inv - cm * wb_h) / jm
-
-        # friction: z exact with a = |ω½|/g(ω½), σ2 trapezoidal (implicit)
-        if w_h >= 0.0:
-            s2 = fr_.sigma2_pos_nm_s_rad
-            tc = fr_.tc_pos_nm
-        else:
-            s2 = fr_.sigma2_neg_nm_s_rad
-            tc = fr_.tc_neg_nm
-        if self.perfect:
-            z1 = 0.0
-            fz = 0.0
-            a = 0.0
-        else:
-            aw = -w_h if w_h < 0.0 else w_h
-            if aw > 0.0:
-                u = aw / fr_.omega_s_rad_s
-                sg = tc + (fr_.ts_nm - tc) * math.exp(-(u * u if fr_.delta == 2.0 else u ** fr_.delta))
-                a = aw * s0 / sg
-                x = a * h
-                zs = w_h / a
-                om = -math.expm1(-x)
-                z1 = zs + (z - zs) * (1.0 - om)
-                zbar = zs + (z - zs) * om / x
-            else:
-                a = 0.0
-                z1 = z
-                zbar = z
-            fz = s0 * zbar + s1 * (z1 - z) / h
-        w1 = (j * w + h * (ta + tb - fz - load) - hh * s2 * w) / (j + hh * s2)
-
-        self.axis_angle_rad = th + hh * (w + w1)
-        self.axis_rate_rad_s = w1
-        self.z_rad = z1
-        self.motor_a_angle_rad = pa + hh * (wa + wa1)
-        self.motor_b_angle_rad = pb + hh * (wb + wb1)
-        self.motor_a_rate_rad_s = wa1
-        self.motor_b_rate_rad_s = wb1
-        self.current_a_a = ia1
-        self.current_b_a = ib1
-        self._a_prev = a
-        self._load_prev = load
-        self.friction_torque_nm = fz + 0.5 * s2 * (w + w1)
+            run = kernel.rigid_run if self.rigid else kernel.twin_run
+            out = run(self.state_tuple(), self._p, self.duty_a, self.duty_b, t_us - now,
+                      self.max_substep_us)
+        X, ta, tb, ff, peak_a, peak_b, over_a, over_b = out
+        self._set_state(X)
+        self.now_us = t_us
         self.gear_torque_nm = (ta, tb)
-        rated = self._rated
-        if ia1 > rated or ib1 > rated:
-            self._overcurrent(ia1, ib1, h_us)
-
-    def _overcurrent(self, ia: float, ib: float, h_us: int) -> None:
+        self.friction_torque_nm = ff
         pa, pb = self.peak_current_a
-        if ia <= pa and ib <= pb and ia <= self._rated and ib <= self._rated:
-            return  # nothing to record (the common case; keeps the substep cheap)
-        oa, ob = self.current_over_rating_us
-        rated = self._rated
-        if ia > rated:
-            oa += h_us
-        if ib > rated:
-            ob += h_us
-        self.peak_current_a = (max(pa, ia), max(pb, ib))
-        self.current_over_rating_us = (oa, ob)
+        if peak_a > pa or peak_b > pb:
+            self.peak_current_a = (max(pa, peak_a), max(pb, peak_b))
+        if over_a or over_b:
+            oa, ob = self.current_over_rating_us
+            self.current_over_rating_us = (oa + over_a, ob + over_b)
 
-    def _substep_rigid(self, t0_us: int, h_us: int) -> None:
-        """Rigid drive: φk = Nθ, inertia J + 2JmN², motor drag reflected (cm N² each)."""
-        h, hh, rl, er, fr = self._coefs(h_us)
-        fr_ = self.friction
-        s0 = fr_.sigma0_nm_rad
-        s1 = fr_.sigma1_nm_s_rad
-        n = self._n
-        k = self._k
-        kn = k * n
-        j = self._j + 2.0 * self._jm * n * n
-        cmr = 2.0 * self._cm * n * n
-        th = self.axis_angle_rad
-        w = self.axis_rate_rad_s
-        z = self.z_rad
-        ia = self.current_a_a
-        ib = self.current_b_a
-        if self.perfect:
-            s2 = fr_.sigma2_pos_nm_s_rad if w >= 0.0 else fr_.sigma2_neg_nm_s_rad
-            f = s2 * w
-        else:
-            a = self._a_prev
-            x = a * hh
-            if x > 0.0:
-                zs = w / a
-                om = -math.expm1(-x)
-                zh = zs + (z - zs) * (1.0 - om)
-                zbar = zs + (z - zs) * om / x
-            else:
-                zh = z + hh * w
-                zbar = z + 0.5 * hh * w
-            s2 = fr_.sigma2_pos_nm_s_rad if w >= 0.0 else fr_.sigma2_neg_nm_s_rad
-            f = s0 * zbar + s1 * (zh - z) / hh + s2 * w
-        w_h = w + hh * (kn * (ia - ib) - f - cmr * w - self._load_prev) / j
-        th_h = th + hh * w
-        load = self._load(th_h, w_h, (t0_us + 0.5 * h_us) * 1e-6) if self._additive else 0.0
-        r = self._r
-        wm = n * w_h
-        iss = (self.duty_a * self._vs - k * wm) / r
-        ia1 = iss + (ia - iss) * er
-        if ia1 >= 0.0:
-            ia_m = iss + (ia - iss) * fr
-        elif ia > 0.0:
-            tz = math.log((ia - iss) / (-iss)) / rl
-            ia_m = (iss * tz + ia / rl) / h
-            ia1 = 0.0
-        else:
-            ia1 = ia_m = 0.0
-        iss = (self.duty_b * self._vs + k * wm) / r
-        ib1 = iss + (ib - iss) * er
-        if ib1 >= 0.0:
-            ib_m = iss + (ib - iss) * fr
-        elif ib > 0.0:
-            tz = math.log((ib - iss) / (-iss)) / rl
-            ib_m = (iss * tz + ib / rl) / h
-            ib1 = 0.0
-        else:
-            ib1 = ib_m = 0.0
-        if w_h >= 0.0:
-            s2 = fr_.sigma2_pos_nm_s_rad
-            tc = fr_.tc_pos_nm
-        else:
-            s2 = fr_.sigma2_neg_nm_s_rad
-            tc = fr_.tc_neg_nm
-        s2 += cmr
-        if self.perfect:
-            z1 = 0.0
-            fz = 0.0
-            a = 0.0
-        else:
-            aw = -w_h if w_h < 0.0 else w_h
-            if aw > 0.0:
-                u = aw / fr_.omega_s_rad_s
-                sg = tc + (fr_.ts_nm - tc) * math.exp(-(u * u if fr_.delta == 2.0 else u ** fr_.delta))
-                a = aw * s0 / sg
-                x = a * h
-                zs = w_h / a
-                om = -math.expm1(-x)
-                z1 = zs + (z - zs) * (1.0 - om)
-                zbar = zs + (z - zs) * om / x
-            else:
-                a = 0.0
-                z1 = z
-                zbar = z
-            fz = s0 * zbar + s1 * (z1 - z) / h
-        ta = kn * ia_m
-        tb = -kn * ib_m
-        w1 = (j * w + h * (ta + tb - fz - load) - hh * s2 * w) / (j + hh * s2)
-        th1 = th + hh * (w + w1)
-        self.axis_angle_rad = th1
-        self.axis_rate_rad_s = w1
-        self.z_rad = z1
-        self.motor_a_angle_rad = self.motor_b_angle_rad = th1 * n
-        self.motor_a_rate_rad_s = self.motor_b_rate_rad_s = w1 * n
-        self.current_a_a = ia1
-        self.current_b_a = ib1
-        self._a_prev = a
-        self._load_prev = load
-        self.friction_torque_nm = fz + 0.5 * (s2 - cmr) * (w + w1)
-        self.gear_torque_nm = (ta, tb)
+    def _run_with_effects(self, now: int, t_us: int) -> tuple:
+        """The kernel's substep loop with the additive load evaluated at each midpoint (Python)."""
+        midpoint, finish = ((kernel.rigid_midpoint, kernel.rigid_finish) if self.rigid
+                            else (kernel.twin_midpoint, kernel.twin_finish))
+        P = self._p
+        rl = P[9]
         rated = self._rated
-        if ia1 > rated or ib1 > rated:
-            self._overcurrent(ia1, ib1, h_us)
+        X = self.state_tuple()
+        peak_a, peak_b = X[5], X[8]
+        over_a = over_b = 0
+        ta = tb = ff = 0.0
+        step = self.max_substep_us
+        while now < t_us:
+            h_us = min(step, t_us - now)
+            h = h_us * 1e-6
+            er = math.exp(-rl * h)
+            fr = (1.0 - er) / (rl * h)
+            M = midpoint(X, P, h)
+            t_mid_s = (now + 0.5 * h_us) * 1e-6
+            load = 0.0
+            for e in self._additive:
+                load += e.torque_nm(M[0], M[1], t_mid_s)
+            X, ta, tb, ff = finish(X, M, P, self.duty_a, self.duty_b, h, er, fr, load)
+            peak_a, peak_b = max(peak_a, X[5]), max(peak_b, X[8])
+            if X[5] > rated:
+                over_a += h_us
+            if X[8] > rated:
+                over_b += h_us
+            now += h_us
+        return X, ta, tb, ff, peak_a, peak_b, over_a, over_b
 
     # ------------------------------------------------------------------ sensors
 

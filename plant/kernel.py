@@ -1,0 +1,366 @@
+"""Integrator kernels of :class:`plant.axis.AxisPlant`, compiled with numba when it is installed.
+
+The second-order exponential-midpoint scheme of ``plant/axis.py`` (see its module docstring and
+``shared/notes/FACTS.md``) written as plain functions of float tuples, so that one source serves
+two ways of running it:
+
+* **compiled** (default): numba ``njit`` turns these functions into machine code the first time
+  they are called (cached on disk next to this file, ``cache=True``). One 5 ms tick of the
+  twin-train plant then costs a few µs instead of ≈25 µs of interpreted Python — the plant was
+  ≈30 % of the whole network's run time (``schmidt-fil bench``).
+* **interpreted**: the very same functions run as Python when numba is not importable or when
+  the environment variable ``SCHMIDT_FIL_JIT=0`` is set (debugging, coverage, a Python that
+  numba does not support yet). ``tests/test_plant_kernel.py`` checks that both agree.
+
+Why numba and not hand-written C: the kernel is the project's physics and must stay readable
+and testable as Python; numba compiles that Python unchanged, is well kept, and needs no
+compiler on the user's machine (wheels). ``fastmath`` is off: IEEE semantics, so results are
+deterministic and agree with the interpreted path to rounding.
+
+Tuples (all floats, SI)
+-----------------------
+state ``X`` (11): θ, ω, z, φa, ωa, ia, φb, ωb, ib, a_prev, load_prev — axis angle [rad], rate
+[rad/s], LuGre bristle deflection [rad], motor shaft angles [rad], rates [rad/s], armature
+currents [A], the bristle decay rate |ω|/g(ω) of the previous substep's midpoint [1/s] and the
+additive load torque of the previous midpoint [N·m].
+
+parameters ``P`` (22), built by :func:`pack_parameters`: see there.
+
+Nothing here reads the clock, sleeps or keeps state between calls.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+__all__ = ["JIT", "BACKEND", "pack_parameters", "mesh_torque_nm", "twin_midpoint", "twin_finish",
+           "twin_run", "rigid_midpoint", "rigid_finish", "rigid_run", "N_STATE"]
+
+N_STATE = 11
+
+_jit_wanted = os.environ.get("SCHMIDT_FIL_JIT", "1").strip() not in ("0", "false", "no", "off")
+try:
+    if not _jit_wanted:
+        raise ImportError("disabled by SCHMIDT_FIL_JIT=0")
+    from numba import njit as _njit
+
+    def _jit(fn):
+        return _njit(cache=True, fastmath=False, error_model="numpy")(fn)
+
+    JIT = True
+except ImportError:  # numba missing or disabled: the same functions, interpreted
+    def _jit(fn):
+        return fn
+
+    JIT = False
+
+#: "numba" or "python": how the kernels run in this process.
+BACKEND = "numba" if JIT else "python"
+
+
+def pack_parameters(*, n, jm, cm, k, kt, ct, hb, j, r, l, vs, friction, perfect, rated) -> tuple:
+    """Build the parameter tuple ``P`` the kernels take.
+
+    Parameters
+    ----------
+    n : float
+        Gear ratio motor : axis (360.489, paper §2.2).
+    jm, cm : float
+        Rotor inertia [kg·m²] and motor viscous drag [N·m·s/rad].
+    k : float
+        Motor torque / back-EMF constant [N·m/A = V·s/rad].
+    kt, ct : float
+        Mesh stiffness [N·m/rad] and damping [N·m·s/rad] of one train, at the axis.
+    hb : float
+        Half the backlash of one train at the axis [rad].
+    j : float
+        Axis inertia [kg·m²].
+    r, l : float
+        Armature resistance [Ω] and inductance [H].
+    vs : float
+        Supply voltage [V].
+    friction : plant.friction.LuGre
+        Resolved LuGre parameters (σ0, σ1, Tc±, Ts, ωs, δ, σ2±).
+    perfect : bool
+        Friction σ2·ω only (no bristles).
+    rated : float
+        Motor current rating [A]; substeps above it are counted.
+
+    Returns
+    -------
+    tuple of 22 floats
+        n⁻¹, Jm, cm, K, kt, ct, hb, J, R, R/L, Vs, σ0, σ1, σ2+, σ2−, Tc+, Tc−, Ts, ωs, δ,
+        perfect (1.0/0.0), rated. (n itself is not needed: the kernels use n⁻¹ and rebuild n.)
+    """
+    f = friction
+    return (1.0 / n, float(jm), float(cm), float(k), float(kt), float(ct), float(hb), float(j),
+            float(r), float(r) / float(l), float(vs),
+            float(f.sigma0_nm_rad), float(f.sigma1_nm_s_rad), float(f.sigma2_pos_nm_s_rad),
+            float(f.sigma2_neg_nm_s_rad), float(f.tc_pos_nm), float(f.tc_neg_nm), float(f.ts_nm),
+            float(f.omega_s_rad_s), float(f.delta), 1.0 if perfect else 0.0, float(rated))
+
+
+# ---------------------------------------------------------------------------------- building blocks
+
+@_jit
+def mesh_torque_nm(d_rad, rel_rate_rad_s, kt, ct, hb):
+    """Torque one gear train applies to the axis [N·m].
+
+    Parameters
+    ----------
+    d_rad : float
+        Motor angle reflected to the axis minus the axis angle [rad].
+    rel_rate_rad_s : float
+        The same difference of rates [rad/s].
+    kt, ct : float
+        Mesh stiffness [N·m/rad] and damping [N·m·s/rad] of the train.
+    hb : float
+        Half the backlash at the axis [rad].
+
+    Returns
+    -------
+    float
+        0 inside the dead zone; outside it, spring plus damper, clipped so that the teeth only
+        push (never pull).
+    """
+    if d_rad > hb:
+        t = kt * (d_rad - hb) + ct * rel_rate_rad_s
+        return t if t > 0.0 else 0.0
+    if d_rad < -hb:
+        t = kt * (d_rad + hb) + ct * rel_rate_rad_s
+        return t if t < 0.0 else 0.0
+    return 0.0
+
+
+@_jit
+def _armature(i0, iss, er, fr, rl, h):
+    """One armature current over a step with the back-EMF frozen: exact exponential, diode clamp.
+
+    ``i → iss + (i0 − iss)e^{−(R/L)h}``; the low-side switch conducts one way only, so the current
+    stops at 0 (exact zero-crossing time). Returns (i at step end, mean i over the step) [A].
+    """
+    i1 = iss + (i0 - iss) * er
+    if i1 >= 0.0:
+        return i1, iss + (i0 - iss) * fr
+    if i0 > 0.0:
+        tz = math.log((i0 - iss) / (-iss)) / rl
+        return 0.0, (iss * tz + i0 / rl) / h
+    return 0.0, 0.0
+
+
+@_jit
+def _bristle(z, w, a, h):
+    """LuGre z over ``h`` with the decay rate ``a`` = |ω|/g(ω) frozen: exact exponential.
+
+    Returns (z at step end, mean z over the step) [rad]. ``a`` = 0 (ω = 0): z integrates ω.
+    """
+    x = a * h
+    if x > 0.0:
+        zs = w / a
+        om = -math.expm1(-x)
+        return zs + (z - zs) * (1.0 - om), zs + (z - zs) * om / x
+    return z + h * w, z + 0.5 * h * w
+
+
+@_jit
+def _decay_rate(w, P):
+    """a = |ω|·σ0/g(ω), g the Stribeck curve (paper eq. 4) for the sign of ω [1/s]."""
+    aw = -w if w < 0.0 else w
+    if aw == 0.0:
+        return 0.0
+    tc = P[15] if w >= 0.0 else P[16]
+    u = aw / P[18]
+    delta = P[19]
+    sg = tc + (P[17] - tc) * math.exp(-(u * u if delta == 2.0 else u ** delta))
+    return aw * P[11] / sg
+
+
+# ---------------------------------------------------------------------------------- twin train
+
+@_jit
+def twin_midpoint(X, P, h):
+    """Stage 1 (predictor to t + h/2) of the twin-train substep.
+
+    Returns (θ½, ω½, φa½, ωa½, φb½, ωb½).
+    """
+    th, w, z, pa, wa, ia, pb, wb, ib, a_prev, load_prev = X
+    n_inv, jm, cm, k, kt, ct, hb, j = P[0], P[1], P[2], P[3], P[4], P[5], P[6], P[7]
+    hh = 0.5 * h
+    ta = mesh_torque_nm(pa * n_inv - th, wa * n_inv - w, kt, ct, hb)
+    tb = mesh_torque_nm(pb * n_inv - th, wb * n_inv - w, kt, ct, hb)
+    s2 = P[13] if w >= 0.0 else P[14]
+    if P[20] != 0.0:
+        f = s2 * w
+    else:
+        zh, zbar = _bristle(z, w, a_prev, hh)
+        f = P[11] * zbar + P[12] * (zh - z) / hh + s2 * w
+    return (th + hh * w,
+            w + hh * (ta + tb - f - load_prev) / j,
+            pa + hh * wa,
+            wa + hh * (k * ia - ta * n_inv - cm * wa) / jm,
+            pb + hh * wb,
+            wb + hh * (-k * ib - tb * n_inv - cm * wb) / jm)
+
+
+@_jit
+def twin_finish(X, M, P, duty_a, duty_b, h, er, fr, load):
+    """Stage 2 of the twin-train substep: the full step with every coefficient frozen at ``M``.
+
+    Parameters
+    ----------
+    X : tuple
+        State at the step start.
+    M : tuple
+        :func:`twin_midpoint` of ``X``.
+    P : tuple
+        :func:`pack_parameters`.
+    duty_a, duty_b : float
+        PWM duties 0..1 held over the step.
+    h : float
+        Step [s].
+    er, fr : float
+        e^{−(R/L)h} and (1 − er)/((R/L)h).
+    load : float
+        Additive load torque at the midpoint [N·m].
+
+    Returns
+    -------
+    (X1, ta, tb, friction_nm)
+        New state; the two mesh torques at the midpoint [N·m]; the friction torque over the step
+        [N·m].
+    """
+    th, w, z, pa, wa, ia, pb, wb, ib, a_prev, load_prev = X
+    th_h, w_h, pa_h, wa_h, pb_h, wb_h = M
+    n_inv, jm, cm, k, kt, ct, hb, j = P[0], P[1], P[2], P[3], P[4], P[5], P[6], P[7]
+    r, rl, vs, s0, s1 = P[8], P[9], P[10], P[11], P[12]
+    hh = 0.5 * h
+    ta = mesh_torque_nm(pa_h * n_inv - th_h, wa_h * n_inv - w_h, kt, ct, hb)
+    tb = mesh_torque_nm(pb_h * n_inv - th_h, wb_h * n_inv - w_h, kt, ct, hb)
+    ia1, ia_m = _armature(ia, (duty_a * vs - k * wa_h) / r, er, fr, rl, h)
+    ib1, ib_m = _armature(ib, (duty_b * vs + k * wb_h) / r, er, fr, rl, h)
+    wa1 = wa + h * (k * ia_m - ta * n_inv - cm * wa_h) / jm
+    wb1 = wb + h * (-k * ib_m - tb * n_inv - cm * wb_h) / jm
+    s2 = P[13] if w_h >= 0.0 else P[14]
+    if P[20] != 0.0:
+        z1, fz, a = 0.0, 0.0, 0.0
+    else:
+        a = _decay_rate(w_h, P)
+        z1, zbar = _bristle(z, w_h, a, h)
+        fz = s0 * zbar + s1 * (z1 - z) / h
+    w1 = (j * w + h * (ta + tb - fz - load) - hh * s2 * w) / (j + hh * s2)
+    X1 = (th + hh * (w + w1), w1, z1, pa + hh * (wa + wa1), wa1, ia1,
+          pb + hh * (wb + wb1), wb1, ib1, a, load)
+    return X1, ta, tb, fz + 0.5 * s2 * (w + w1)
+
+
+@_jit
+def _run(rigid, X, P, duty_a, duty_b, span_us, max_substep_us):
+    """Substep loop shared by :func:`twin_run` and :func:`rigid_run`.
+
+    The drive model is a flag rather than a function argument so that numba can cache the
+    compiled loop on disk (functions passed as arguments make it uncacheable).
+    """
+    rl = P[9]
+    rated = P[21]
+    ta = tb = ff = 0.0
+    peak_a = X[5]
+    peak_b = X[8]
+    over_a = 0
+    over_b = 0
+    h_last = -1
+    er = fr = h = 0.0
+    left = span_us
+    while left > 0:
+        h_us = max_substep_us if left > max_substep_us else left
+        if h_us != h_last:
+            h = h_us * 1e-6
+            er = math.exp(-rl * h)
+            fr = (1.0 - er) / (rl * h)
+            h_last = h_us
+        if rigid:
+            Mr = rigid_midpoint(X, P, h)
+            X, ta, tb, ff = rigid_finish(X, Mr, P, duty_a, duty_b, h, er, fr, 0.0)
+        else:
+            Mt = twin_midpoint(X, P, h)
+            X, ta, tb, ff = twin_finish(X, Mt, P, duty_a, duty_b, h, er, fr, 0.0)
+        ia1 = X[5]
+        ib1 = X[8]
+        if ia1 > peak_a:
+            peak_a = ia1
+        if ib1 > peak_b:
+            peak_b = ib1
+        if ia1 > rated:
+            over_a += h_us
+        if ib1 > rated:
+            over_b += h_us
+        left -= h_us
+    return X, ta, tb, ff, peak_a, peak_b, over_a, over_b
+
+
+@_jit
+def twin_run(X, P, duty_a, duty_b, span_us, max_substep_us):
+    """Advance the twin-train plant ``span_us`` in substeps of at most ``max_substep_us``.
+
+    No additive load (the caller runs :func:`twin_midpoint`/:func:`twin_finish` itself when it
+    has load effects). Returns (X1, ta, tb, friction_nm, peak_ia, peak_ib, over_a_us, over_b_us):
+    the last substep's mesh and friction torques, the largest currents of the span (including
+    the start) [A] and the µs spent above the rating per motor.
+    """
+    return _run(False, X, P, duty_a, duty_b, span_us, max_substep_us)
+
+
+# ---------------------------------------------------------------------------------- rigid drive
+
+@_jit
+def rigid_midpoint(X, P, h):
+    """Stage 1 of the rigid-drive substep (φk = Nθ, inertia J + 2JmN²). Returns (θ½, ω½)."""
+    th, w, z, pa, wa, ia, pb, wb, ib, a_prev, load_prev = X
+    n = 1.0 / P[0]
+    kn = P[3] * n
+    jr = P[7] + 2.0 * P[1] * n * n
+    cmr = 2.0 * P[2] * n * n
+    hh = 0.5 * h
+    s2 = P[13] if w >= 0.0 else P[14]
+    if P[20] != 0.0:
+        f = s2 * w
+    else:
+        zh, zbar = _bristle(z, w, a_prev, hh)
+        f = P[11] * zbar + P[12] * (zh - z) / hh + s2 * w
+    return th + hh * w, w + hh * (kn * (ia - ib) - f - cmr * w - load_prev) / jr
+
+
+@_jit
+def rigid_finish(X, M, P, duty_a, duty_b, h, er, fr, load):
+    """Stage 2 of the rigid-drive substep; same contract as :func:`twin_finish`."""
+    th, w, z, pa, wa, ia, pb, wb, ib, a_prev, load_prev = X
+    th_h, w_h = M
+    n = 1.0 / P[0]
+    k = P[3]
+    kn = k * n
+    jr = P[7] + 2.0 * P[1] * n * n
+    cmr = 2.0 * P[2] * n * n
+    r, rl, vs, s0, s1 = P[8], P[9], P[10], P[11], P[12]
+    hh = 0.5 * h
+    wm = n * w_h
+    ia1, ia_m = _armature(ia, (duty_a * vs - k * wm) / r, er, fr, rl, h)
+    ib1, ib_m = _armature(ib, (duty_b * vs + k * wm) / r, er, fr, rl, h)
+    s2 = (P[13] if w_h >= 0.0 else P[14]) + cmr
+    if P[20] != 0.0:
+        z1, fz, a = 0.0, 0.0, 0.0
+    else:
+        a = _decay_rate(w_h, P)
+        z1, zbar = _bristle(z, w_h, a, h)
+        fz = s0 * zbar + s1 * (z1 - z) / h
+    ta = kn * ia_m
+    tb = -kn * ib_m
+    w1 = (jr * w + h * (ta + tb - fz - load) - hh * s2 * w) / (jr + hh * s2)
+    th1 = th + hh * (w + w1)
+    X1 = (th1, w1, z1, th1 * n, w1 * n, ia1, th1 * n, w1 * n, ib1, a, load)
+    return X1, ta, tb, fz + 0.5 * (s2 - cmr) * (w + w1)
+
+
+@_jit
+def rigid_run(X, P, duty_a, duty_b, span_us, max_substep_us):
+    """:func:`twin_run` for the rigid drive."""
+    return _run(True, X, P, duty_a, duty_b, span_us, max_substep_us)

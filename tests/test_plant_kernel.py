@@ -1,0 +1,72 @@
+"""The plant kernel gives the same numbers compiled (numba) and interpreted (plain Python)."""
+
+from __future__ import annotations
+
+import importlib.util
+
+import pytest
+
+from plant import kernel
+from plant.axis import AxisPlant
+from plant.params import load_parameters
+
+
+@pytest.fixture(scope="module")
+def interpreted():
+    """A second copy of plant.kernel loaded with SCHMIDT_FIL_JIT=0 (every function interpreted)."""
+    mp = pytest.MonkeyPatch()
+    mp.setenv("SCHMIDT_FIL_JIT", "0")
+    try:
+        spec = importlib.util.spec_from_file_location("plant_kernel_interpreted", kernel.__file__)
+        mod = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mod)
+    finally:
+        mp.undo()
+    assert mod.BACKEND == "python"
+    return mod
+
+
+CASES = [
+    # (overrides, duty schedule [(duty_a, duty_b, ticks)])
+    ({"axes.ra.friction.preload": "low"}, [(0.30, 0.075, 200), (0.0, 0.0, 50), (0.05, 0.2, 200)]),
+    ({"axes.ra.friction.preload": "high"}, [(0.9, 0.2, 100), (0.2, 0.9, 100)]),   # breakaway, then reversal
+    ({"axes.ra.drive_model": "rigid"}, [(0.3, 0.075, 200), (0.0, 0.6, 100)]),
+    ({"perfect": True}, [(0.3, 0.0, 100), (0.0, 0.0, 100)]),
+]
+
+
+@pytest.mark.parametrize("overrides,schedule", CASES)
+def test_compiled_and_interpreted_agree(interpreted, overrides, schedule):
+    if not kernel.JIT:
+        pytest.skip("numba not installed or SCHMIDT_FIL_JIT=0: only the interpreted kernel exists")
+    ax = AxisPlant(load_parameters(overrides=overrides).ra)
+    run_c = kernel.rigid_run if ax.rigid else kernel.twin_run
+    run_i = interpreted.rigid_run if ax.rigid else interpreted.twin_run
+    xc = xi = ax.state_tuple()
+    moved = 0.0
+    for duty_a, duty_b, ticks in schedule:
+        for _ in range(ticks):
+            oc = run_c(xc, ax._p, duty_a, duty_b, 5_000, ax.max_substep_us)
+            oi = run_i(xi, ax._p, duty_a, duty_b, 5_000, ax.max_substep_us)
+            xc, xi = oc[0], oi[0]
+            assert oc[6:] == oi[6:]                       # µs over the current rating: integers
+            for a, b in zip(oc[1:6], oi[1:6]):
+                assert a == pytest.approx(b, rel=1e-9, abs=1e-12)
+        for a, b in zip(xc, xi):
+            assert a == pytest.approx(b, rel=1e-9, abs=1e-15)
+        moved = max(moved, abs(xc[1]))
+    assert moved > 1e-5  # the schedules really move the axis (> 2″/s)
+
+
+def test_substeps_split_spans_exactly():
+    """One 5 ms span equals ten 500 µs spans (same substeps), and a 730 µs span = 500 + 230."""
+    ax = AxisPlant(load_parameters().ra)
+    x0 = ax.state_tuple()
+    one = kernel.twin_run(x0, ax._p, 0.4, 0.1, 5_000, 500)[0]
+    x = x0
+    for _ in range(10):
+        x = kernel.twin_run(x, ax._p, 0.4, 0.1, 500, 500)[0]
+    assert x == one
+    a = kernel.twin_run(x0, ax._p, 0.4, 0.1, 730, 500)[0]
+    b = kernel.twin_run(kernel.twin_run(x0, ax._p, 0.4, 0.1, 500, 500)[0], ax._p, 0.4, 0.1, 230, 500)[0]
+    assert a == b
