@@ -57,26 +57,38 @@ def measure(scenario, seconds: float, interface: str) -> dict:
         tel.close()
 
 
-def plant_cost_us_per_tick(drive_model: str, ticks: int = 2000) -> float:
-    """Wall µs per 5 ms tick of one RA plant alone (tracking at 15″/s with a fixed duty)."""
-    from plant.axis import AxisPlant
+def plant_cost_us_per_tick(drive_model: str, ticks: int = 2000, interpreted: bool = False) -> float:
+    """Wall µs per 5 ms tick of one RA plant alone (a fixed duty, the axis moving).
+
+    ``interpreted=True`` swaps in the interpreted copy of :mod:`plant.kernel` (as with
+    ``SCHMIDT_FIL_JIT=0``) for this measurement only.
+    """
+    from plant import axis as plant_axis
+    from plant import kernel
     from plant.params import load_parameters
 
-    ax = AxisPlant(load_parameters(overrides={"axes.ra.drive_model": drive_model}).ra, name="ra")
+    ax = plant_axis.AxisPlant(load_parameters(overrides={"axes.ra.drive_model": drive_model}).ra, name="ra")
     ax.set_duties(0.3, 0.075)
-    t = 0
-    for _ in range(200):
-        t += 5_000
-        ax.advance_to(t)
-    w0 = time.perf_counter()
-    for _ in range(ticks):
-        t += 5_000
-        ax.advance_to(t)
-    return (time.perf_counter() - w0) / ticks * 1e6
+    saved = plant_axis.kernel
+    if interpreted:
+        plant_axis.kernel = kernel.interpreted()
+    try:
+        t = 0
+        for _ in range(200):
+            t += 5_000
+            ax.advance_to(t)
+        w0 = time.perf_counter()
+        for _ in range(ticks):
+            t += 5_000
+            ax.advance_to(t)
+        return (time.perf_counter() - w0) / ticks * 1e6
+    finally:
+        plant_axis.kernel = saved
 
 
 def run(args: argparse.Namespace) -> int:
     from host.scenario import load_scenario
+    from plant import kernel
 
     scenario = load_scenario(args.scenario or DEFAULT_SCENARIO)
     best = {}
@@ -93,8 +105,12 @@ def run(args: argparse.Namespace) -> int:
         "scenario": scenario.name,
         "frames_received_by_host": best["sim"]["frames"],
         "max_rss_mib": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+        "plant_backend": kernel.BACKEND,
         "plant_us_per_tick": {m: round(min(plant_cost_us_per_tick(m) for _ in range(args.repeat)), 2)
                               for m in ("twin_train", "rigid")},
+        "plant_us_per_tick_interpreted": {
+            m: round(min(plant_cost_us_per_tick(m, interpreted=True) for _ in range(args.repeat)), 2)
+            for m in ("twin_train", "rigid")},
         "target_rtf": 50,
     }
     if args.json:
@@ -104,6 +120,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"naive (one python-can virtual Bus per board):            {out['rtf_naive']:8.1f}x real time")
         print(f"ratio: {out['ratio']:.2f}   target rtf >= 50: {'met' if out['rtf'] >= 50 else 'NOT met'}   "
               f"max RSS {out['max_rss_mib']} MiB")
-        pc = out["plant_us_per_tick"]
-        print(f"one axis plant alone, per 5 ms tick: twin_train {pc['twin_train']} µs, rigid {pc['rigid']} µs")
+        pc, pi = out["plant_us_per_tick"], out["plant_us_per_tick_interpreted"]
+        print(f"one axis plant alone, per 5 ms tick ({out['plant_backend']} kernel): twin_train "
+              f"{pc['twin_train']} µs, rigid {pc['rigid']} µs; interpreted: twin_train "
+              f"{pi['twin_train']} µs, rigid {pi['rigid']} µs")
     return 0

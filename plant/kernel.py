@@ -34,7 +34,7 @@ from __future__ import annotations
 import math
 import os
 
-__all__ = ["JIT", "BACKEND", "pack_parameters", "mesh_torque_nm", "twin_midpoint", "twin_finish",
+__all__ = ["JIT", "BACKEND", "interpreted", "pack_parameters", "mesh_torque_nm", "twin_midpoint", "twin_finish",
            "twin_run", "rigid_midpoint", "rigid_finish", "rigid_run", "N_STATE"]
 
 N_STATE = 11
@@ -57,6 +57,32 @@ except ImportError:  # numba missing or disabled: the same functions, interprete
 
 #: "numba" or "python": how the kernels run in this process.
 BACKEND = "numba" if JIT else "python"
+
+
+def interpreted():
+    """A separate copy of this module with every function interpreted (``SCHMIDT_FIL_JIT=0``).
+
+    For comparisons in tests and ``schmidt-fil bench``; the plant itself uses this module.
+
+    Returns
+    -------
+    module
+        With the same functions as :mod:`plant.kernel` and ``BACKEND == "python"``.
+    """
+    import importlib.util
+
+    old = os.environ.get("SCHMIDT_FIL_JIT")
+    os.environ["SCHMIDT_FIL_JIT"] = "0"
+    try:
+        spec = importlib.util.spec_from_file_location("plant.kernel_interpreted", __file__)
+        mod = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mod)
+    finally:
+        if old is None:
+            del os.environ["SCHMIDT_FIL_JIT"]
+        else:
+            os.environ["SCHMIDT_FIL_JIT"] = old
+    return mod
 
 
 def pack_parameters(*, n, jm, cm, k, kt, ct, hb, j, r, l, vs, friction, perfect, rated) -> tuple:

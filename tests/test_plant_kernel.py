@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
-
 import pytest
 
 from plant import kernel
@@ -14,15 +12,8 @@ from plant.params import load_parameters
 @pytest.fixture(scope="module")
 def interpreted():
     """A second copy of plant.kernel loaded with SCHMIDT_FIL_JIT=0 (every function interpreted)."""
-    mp = pytest.MonkeyPatch()
-    mp.setenv("SCHMIDT_FIL_JIT", "0")
-    try:
-        spec = importlib.util.spec_from_file_location("plant_kernel_interpreted", kernel.__file__)
-        mod = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(mod)
-    finally:
-        mp.undo()
-    assert mod.BACKEND == "python"
+    mod = kernel.interpreted()
+    assert mod.BACKEND == "python" and mod.twin_run is not kernel.twin_run
     return mod
 
 
