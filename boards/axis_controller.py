@@ -7,6 +7,12 @@ the effort U into two PWM duties with the twin-motor drive law of §3.3, and eve
 queues AXIS_STATUS and AXIS_AUX (10 ms). Commands arrive as AXIS_COMMAND frames; the axis's
 EnDat position reader sends LIMIT frames.
 
+RS232 telemetry (§3.4, optional ``serial_port``): in the same every-second-tick branch the ISR
+records one 10 ms sample — control effort U (Q15), both PWM duty registers, the 32-bit QEI
+count, the last tick's QEI difference, both shunt ADC counts, the setpoint (milli-″/s), mode
+and status flags (:data:`bus.telemetry.SAMPLE_FIELDS`); the background loop writes a packet of
+25 samples every 250 ms.
+
 Velocity measurement and its quantisation
 -----------------------------------------
 One QEI count is 360°·3600/(4.608e6·24.5) = 0.011480″ of axis angle (§3.2: "0.011 arc sec").
@@ -137,6 +143,8 @@ class AxisController(Board):
         On a limit: "hold" = PI to zero rate and hold; "coast" = U = 0, duties 0.
     name : str, optional
         Owner name (default "ra-axis"/"dec-axis").
+    serial_port : object, optional
+        RS232 telemetry port with the pyserial ``write()`` API (None: no telemetry).
     """
 
     DEVICE_TYPE = int(proto.DeviceType.AXIS_CONTROLLER)
@@ -153,7 +161,8 @@ class AxisController(Board):
                  tick_us: int = 5_000, status_every_ticks: int = 2,
                  qei_counts_per_rev: int = QEI_COUNTS_PER_REV, shunt_ohm: float = 0.1,
                  overcurrent_a: float = 6.0, overcurrent_trip: bool = False,
-                 limit_stop: str = "hold", name: Optional[str] = None) -> None:
+                 limit_stop: str = "hold", name: Optional[str] = None,
+                 serial_port=None) -> None:
         if law not in DRIVE_LAWS:
             raise ValueError(f"unknown drive law {law!r}; valid: {sorted(DRIVE_LAWS)}")
         if not 0.0 <= counter_fraction < 1.0:
@@ -163,7 +172,8 @@ class AxisController(Board):
         self.axis = (node_id - 1) if axis is None else int(axis)
         default_name = ("ra-axis", "dec-axis")[self.axis] if self.axis in (0, 1) else None
         super().__init__(scheduler, bus, node_id, name=name or default_name,
-                         background_period_us=tick_us)
+                         background_period_us=tick_us, serial_port=serial_port,
+                         telemetry_period_us=int(tick_us) * int(status_every_ticks))
         self.tick_us = int(tick_us)
         self.kp0, self.ki0, self.u_max = float(kp), float(ki), float(u_max)
         self.counter_fraction = float(counter_fraction)
@@ -213,6 +223,8 @@ class AxisController(Board):
         self.limit_refusals = 0
         self.ticks = 0
         self.aux_seq = 0
+        self._tlm_sp = 0.0            # setpoint last converted for telemetry, ″/s
+        self._tlm_sp_m = 0            # the same in milli-″/s (telemetry field)
 
     # ------------------------------------------------------------------ properties
     @property
@@ -272,11 +284,24 @@ class AxisController(Board):
         self._write_outputs()
 
         if self.ticks % self.status_every_ticks == 0:
-            self.queue(proto.axis_status_cob_id(self.node_id), self._status_payload())
+            u_q15 = int(round(self.pi.u * 32767))
+            u_q15 = -32767 if u_q15 < -32767 else (32767 if u_q15 > 32767 else u_q15)
+            flags = self.status_flags()
+            delta = -32768 if delta < -32768 else (32767 if delta > 32767 else delta)
+            self.queue(proto.axis_status_cob_id(self.node_id),
+                       proto.encode_axis_status(self.mode, flags, u_q15, self.qei.extended))
             self.aux_seq = (self.aux_seq + 1) & 0xFF
             self.queue(proto.axis_aux_cob_id(self.node_id),
-                       proto.encode_axis_aux(self.aux_seq, self.adc_a, self.adc_b,
-                                            max(-32768, min(32767, self.qei_delta))))
+                       proto.encode_axis_aux(self.aux_seq, self.adc_a, self.adc_b, delta))
+            if self.telemetry_enabled:
+                if self.setpoint_arcsec_s != self._tlm_sp:      # convert only on a change
+                    self._tlm_sp = sp = self.setpoint_arcsec_s
+                    m = int(round(sp * 1000.0))
+                    self._tlm_sp_m = -0x80000000 if m < -0x80000000 else min(m, 0x7FFFFFFF)
+                pdc = self.pwm.duty_register
+                self.telemetry_sample(now_us, (u_q15, pdc[0], pdc[1], self.qei.extended, delta,
+                                               self.adc_a, self.adc_b, self._tlm_sp_m,
+                                               self.mode, flags))
 
     def _write_outputs(self) -> None:
         if self.tripped:
@@ -296,11 +321,6 @@ class AxisController(Board):
         if self.tripped or self.position_invalid:
             f |= STATUS_FAULT
         return f
-
-    def _status_payload(self) -> bytes:
-        u_q15 = int(round(self.pi.u * 32767))
-        return proto.encode_axis_status(self.mode, self.status_flags(),
-                                       max(-32767, min(32767, u_q15)), self.qei.extended)
 
     def _background(self, now_us: int) -> None:
         # The ISR queued ``None`` as a placeholder for an over-current FAULT (built here, where

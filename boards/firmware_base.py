@@ -11,7 +11,14 @@ Execution model (simulated time, :class:`bus.scheduler.Scheduler`):
   decodes and applies commands (short: parse, set a few variables);
 * a background loop at ``PRIO_BACKGROUND`` (same period and phase as the board's main timer, so
   it runs right after the ISR at the same instant) — transmits the periodic frames queued by the
-  ISR and, on a bus without a receive interrupt, polls the CAN controller.
+  ISR, writes a finished RS232 telemetry packet and, on a bus without a receive interrupt, polls
+  the CAN controller.
+
+RS232 telemetry (paper §3.4, layout :mod:`bus.telemetry`): a board built with a
+``serial_port`` (any object with the pyserial ``write()`` API) has a :class:`Uart`; its firmware
+calls :meth:`Board.telemetry_sample` every 10 ms from an ISR or loop it already runs (no extra
+timer), and every 25th sample the background loop encodes one packet and writes it — one write
+per 250 ms, no per-sample or per-byte events. Without a port nothing is sampled.
 
 Robustness contract (architecture.md, STYLE.md §8): a frame that cannot be decoded (wrong DLC,
 wrong device-type byte, unknown command or enum, remote or extended frame on an accepted id) is
@@ -32,19 +39,21 @@ from typing import Dict, List, Optional
 import can
 
 from bus import protocol as proto
-from boards.peripherals import CanController, Timer
+from bus import telemetry as tlm
+from boards.peripherals import CanController, Timer, Uart
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_BACKGROUND, Scheduler
 
 __all__ = ["Board", "RESET_CAUSES", "STATE_BOOT", "STATE_OPERATIONAL", "STATE_FAULT",
            "STATE_STOPPED", "FAULT_MALFORMED", "FAULT_CRC", "FAULT_OVERCURRENT",
-           "FAULT_LIMIT_STOP", "FAULT_WATCHDOG"]
+           "FAULT_LIMIT_STOP", "FAULT_WATCHDOG", "FAULT_STEP_LOSS"]
 
 RESET_CAUSES: Dict[str, int] = {"power_on": 0, "watchdog": 1, "software": 2}
 _CAUSE_NAMES = {v: k for k, v in RESET_CAUSES.items()}
 
 STATE_BOOT, STATE_OPERATIONAL, STATE_FAULT, STATE_STOPPED = 0, 1, 2, 3
 FAULT_MALFORMED, FAULT_CRC, FAULT_OVERCURRENT, FAULT_LIMIT_STOP, FAULT_WATCHDOG = 1, 2, 3, 4, 5
+FAULT_STEP_LOSS = int(proto.FaultCode.STEP_LOSS)
 
 BROADCAST_PING, BROADCAST_RESET, BROADCAST_STOP_ALL = 1, 2, 3
 HEARTBEAT_PERIOD_US = 1_000_000
@@ -67,6 +76,12 @@ class Board:
         Period of the background loop, µs.
     rx_buffers : int
         CAN controller hardware receive buffers (2: MCP2515, PIC18F4480 ECAN mode 0).
+    serial_port : object, optional
+        RS232 port for the telemetry packets (pyserial ``write()`` API: a
+        ``bus.serial_link.SerialEnd`` or a ``serial.Serial``); None = no telemetry.
+    telemetry_period_us : int
+        Spacing of the telemetry samples, µs (10 000, §3.4); the subclass calls
+        :meth:`telemetry_sample` at this period.
     """
 
     DEVICE_TYPE = 0x00
@@ -74,7 +89,8 @@ class Board:
 
     def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int, *,
                  name: Optional[str] = None, background_period_us: int = 5_000,
-                 rx_buffers: int = 2) -> None:
+                 rx_buffers: int = 2, serial_port=None,
+                 telemetry_period_us: int = tlm.SAMPLE_PERIOD_US) -> None:
         if not 1 <= int(node_id) <= 15:
             raise ValueError(f"node_id must be 1..15, got {node_id}")
         self.scheduler = scheduler
@@ -90,6 +106,10 @@ class Board:
                                        priority=PRIO_BACKGROUND, owner=f"{self.name}/background")
         self._timers: List[Timer] = [self._heartbeat_timer, self._background_timer]
         self._accepted_ids = {proto.host_broadcast_cob_id()}
+        self.uart: Optional[Uart] = Uart(serial_port) if serial_port is not None else None
+        #: True when the firmware samples telemetry (a port is wired)
+        self.telemetry_enabled = self.uart is not None
+        self.telemetry_period_us = int(telemetry_period_us)
         # persistent across resets (RCON-like)
         self.reset_cause = "power_on"
         self.reset_count = 0
@@ -103,10 +123,20 @@ class Board:
         self.boot_us = self.scheduler.now_us
         self._tx_queue: List[tuple] = []
         self.faults_sent = 0
+        self._tlm_values: list = []          # flat field values of the samples so far
+        self._tlm_n = 0
+        self._tlm_t0_us = 0
+        self._tlm_ready: Optional[tuple] = None
+        self.telemetry_seq = 0               # packets written since reset
+        self.telemetry_dropped = 0           # packets overwritten before the loop wrote them
 
     def _peripherals(self) -> list:
         """Peripherals reset with the board (subclasses extend)."""
         return []
+
+    def _all_peripherals(self) -> list:
+        ps = self._peripherals()
+        return ps + [self.uart] if self.uart is not None else ps
 
     def add_timer(self, timer: Timer) -> Timer:
         """Register a timer that :meth:`start` starts and :meth:`reset` stops."""
@@ -149,7 +179,7 @@ class Board:
         for timer in self._timers:
             timer.reset()
         self.can.reset()
-        for p in self._peripherals():
+        for p in self._all_peripherals():
             p.reset()
         self.reset_cause = cause
         self.reset_count += 1
@@ -164,7 +194,7 @@ class Board:
         for timer in self._timers:
             timer.reset()
         self.can.reset()
-        for p in self._peripherals():
+        for p in self._all_peripherals():
             p.reset()
         self.started = False
         self.reset_cause = "power_on"
@@ -218,6 +248,38 @@ class Board:
         for arbitration_id, data in queue:
             self.send(arbitration_id, data)
         self.background(now_us)
+        if self._tlm_ready is not None:
+            self._write_telemetry()
+
+    # ------------------------------------------------------------------ RS232 telemetry (§3.4)
+    def telemetry_sample(self, now_us: int, values: tuple) -> None:
+        """Record one 10 ms sample (call only when :attr:`telemetry_enabled`).
+
+        Parameters
+        ----------
+        now_us : int
+            Time of the sample, µs (the ISR's argument); the packet carries the board uptime.
+        values : tuple of int
+            The fields of :data:`bus.telemetry.SAMPLE_FIELDS` for this board's device type,
+            already saturated to their widths.
+        """
+        if self._tlm_n == 0:
+            self._tlm_t0_us = now_us - self.boot_us
+        self._tlm_values.extend(values)
+        self._tlm_n += 1
+        if self._tlm_n == tlm.SAMPLES_PER_PACKET:
+            if self._tlm_ready is not None:
+                self.telemetry_dropped += 1
+            self._tlm_ready = (self._tlm_t0_us, self._tlm_values)
+            self._tlm_values = []
+            self._tlm_n = 0
+
+    def _write_telemetry(self) -> None:
+        t0_us, values = self._tlm_ready
+        self._tlm_ready = None
+        self.uart.write(tlm.encode_packet(self.DEVICE_TYPE, self.node_id, self.telemetry_seq, t0_us,
+                                          values, self.telemetry_period_us))
+        self.telemetry_seq = (self.telemetry_seq + 1) & 0xFFFF
 
     def background(self, now_us: int) -> None:
         """Hook for subclasses: background work after the queued frames are sent."""

@@ -386,26 +386,63 @@ class CanController:
 
 
 class Uart:
-    """Minimal asynchronous serial port (RS232 debug link of every board, §3.4).
+    """Asynchronous serial port of a board (the RS232 link of §3.4), on a pyserial-like port.
 
-    Only what a scenario may use: bytes written by firmware go to the ``on_tx`` port; bytes fed
-    with :meth:`feed` wait in a receive FIFO of ``rx_fifo`` bytes (4 on the PIC/dsPIC UARTs;
-    overflow counted, byte lost). Baud-rate timing is not modelled.
+    The firmware writes bytes; the UART hands them to ``port``, any object with the pyserial
+    ``write()`` API: a :class:`bus.serial_link.SerialEnd` in the emulator (byte timing in
+    simulated time), or a real ``serial.Serial`` / ``serial.serial_for_url("loop://",
+    timeout=0)``. The firmware code is the same for all of them. Bytes fed with :meth:`feed`
+    wait in a receive FIFO of ``rx_fifo`` bytes (4 on the PIC/dsPIC UARTs; overflow counted,
+    byte lost).
+
+    Parameters
+    ----------
+    port : object, optional
+        Transmit side: has ``write(bytes) -> int``; optionally ``out_waiting`` (bytes not yet
+        sent) and ``reset_output_buffer()``.
+    on_tx : callable, optional
+        Alternative to ``port``: ``on_tx(data)`` called for every write (tests).
+    rx_fifo : int
+        Receive FIFO depth, bytes (4).
+
+    Attributes
+    ----------
+    tx_bytes, tx_writes : int
+        Bytes and write calls since reset.
+    tx_late : int
+        Writes started while the previous write was still waiting to be sent (``out_waiting``
+        > 0): the line is too slow for the data rate. Counted, the data still queued.
+    tx_log : deque
+        The last 8 writes (debugging; bounded so long runs do not grow).
     """
 
-    def __init__(self, on_tx: Optional[Callable[[bytes], None]] = None, rx_fifo: int = 4) -> None:
+    def __init__(self, port=None, on_tx: Optional[Callable[[bytes], None]] = None,
+                 rx_fifo: int = 4) -> None:
+        self.port = port
         self.on_tx = on_tx
         self.rx_fifo = int(rx_fifo)
         self._rx: Deque[int] = deque()
+        self._has_out_waiting = port is not None and hasattr(port, "out_waiting")
         self.rx_overruns = 0
-        self.tx_log: List[bytes] = []
+        self.tx_bytes = 0
+        self.tx_writes = 0
+        self.tx_late = 0
+        self.tx_log: Deque[bytes] = deque(maxlen=8)
 
-    def write(self, data: bytes) -> None:
-        """Transmit bytes."""
+    def write(self, data: bytes) -> int:
+        """Transmit bytes; returns the number handed to the port."""
         data = bytes(data)
+        self.tx_writes += 1
+        self.tx_bytes += len(data)
         self.tx_log.append(data)
+        n = len(data)
+        if self.port is not None:
+            if self._has_out_waiting and self.port.out_waiting:
+                self.tx_late += 1
+            n = self.port.write(data)
         if self.on_tx is not None:
             self.on_tx(data)
+        return n
 
     def feed(self, data: bytes) -> None:
         """Bytes arriving on RX."""
@@ -422,10 +459,14 @@ class Uart:
         return out
 
     def reset(self) -> None:
-        """Power-on: FIFO empty, counters and log cleared."""
+        """Power-on: FIFO empty, counters and log cleared; a transmission in progress is
+        aborted (``reset_output_buffer`` of the port: bytes not yet on the wire are lost)."""
         self._rx.clear()
         self.rx_overruns = 0
-        self.tx_log = []
+        self.tx_bytes = self.tx_writes = self.tx_late = 0
+        self.tx_log.clear()
+        if self.port is not None and hasattr(self.port, "reset_output_buffer"):
+            self.port.reset_output_buffer()
 
 
 class StepDir:

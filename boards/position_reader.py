@@ -7,6 +7,9 @@ POSITION. A frame failing the CRC is counted (``crc_errors``), not used (the las
 is kept and POSITION flag bit2 is set) and reported with a FAULT frame (code 2) — at most one
 such FAULT per second so a broken cable does not flood the bus.
 
+RS232 telemetry (§3.4, optional ``serial_port``): each read is also one 10 ms telemetry sample
+(position counts incl. offset, POSITION flags); a packet of 25 goes out every 250 ms.
+
 Position convention
 -------------------
 ``pos_counts`` = (raw word + offset) mod 2**29; the axis angle is that value read as a signed
@@ -73,6 +76,8 @@ class PositionReader(Board):
         LIMIT repeat period while active, µs (100 000).
     name : str, optional
         Owner name (default "ra-reader"/"dec-reader").
+    serial_port : object, optional
+        RS232 telemetry port with the pyserial ``write()`` API (None: no telemetry).
     """
 
     DEVICE_TYPE = int(proto.DeviceType.POSITION_READER)
@@ -83,11 +88,12 @@ class PositionReader(Board):
                  read_period_us: int = 10_000, low_limit_deg: Optional[float] = None,
                  high_limit_deg: Optional[float] = None, hysteresis_arcsec: float = 10.0,
                  offset_counts: int = 0, limit_repeat_us: int = 100_000,
-                 name: Optional[str] = None) -> None:
+                 name: Optional[str] = None, serial_port=None) -> None:
         self.axis = (node_id - 3) if axis is None else int(axis)
         default_name = ("ra-reader", "dec-reader")[self.axis] if self.axis in (0, 1) else None
         super().__init__(scheduler, bus, node_id, name=name or default_name,
-                         background_period_us=read_period_us)
+                         background_period_us=read_period_us, serial_port=serial_port,
+                         telemetry_period_us=read_period_us)
         lo, hi = DEFAULT_LIMITS_DEG.get(self.axis, (-180.0, 180.0))
         self.low_limit_deg = lo if low_limit_deg is None else float(low_limit_deg)
         self.high_limit_deg = hi if high_limit_deg is None else float(high_limit_deg)
@@ -180,9 +186,11 @@ class PositionReader(Board):
         elif self._crc_fault_us is None or now_us - self._crc_fault_us >= CRC_FAULT_MIN_INTERVAL_US:
             self._crc_fault_us = now_us
             self.queue(proto.fault_cob_id(self.node_id), None)
+        pflags = self.position_flags()
         self.queue(proto.position_cob_id(self.node_id),
-                   proto.encode_position(self.position_flags(), min(self.crc_errors, 0xFFFF),
-                                        self.pos_counts))
+                   proto.encode_position(pflags, min(self.crc_errors, 0xFFFF), self.pos_counts))
+        if self.telemetry_enabled:
+            self.telemetry_sample(now_us, (self.pos_counts, pflags))
         flags = self.limit_frame_flags()
         due = flags != self._limit_sent_flags or (
             flags and (self._limit_sent_us is None

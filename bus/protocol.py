@@ -28,9 +28,10 @@ field kind:
 * ``enum`` and ``flags`` fields (and ids): an invalid value raises
   :class:`bus.errors.EncodeError` (a bug in the sender, not line noise);
 * ``wrap`` fields (counters that wrap in hardware: ``qei_counts`` u24, ``pos_counts`` 29-bit,
-  ``seq`` u8, ``uptime_s`` u16) are reduced modulo 2**width;
+  ``seq`` u8, ``uptime_s`` u16, the focus ``enc_counts`` u16) are reduced modulo 2**width;
 * ``clamp`` fields (quantities and error counters: ``u_q15`` ±32767, ``qei_delta`` i16, ADC
-  counts 0..1023, ``value``/``pos_halfsteps`` i32, u16 error counters) saturate at their limits;
+  counts 0..1023, ``value`` i32, ``pos_halfsteps`` i16, u16 error counters) saturate at their
+  limits;
 * a non-integer (e.g. float) value raises :class:`bus.errors.EncodeError`.
 
 :data:`FRAMES` describes every frame (fields, ranges, kinds, DBC names and scaling); the DBC,
@@ -154,6 +155,7 @@ class FaultCode(IntEnum):
     OVER_CURRENT = 3
     LIMIT_STOP = 4
     WATCHDOG = 5
+    STEP_LOSS = 6    #: focus: half-steps commanded but not seen on the motor encoder
 
 
 class AxisMode(IntEnum):
@@ -237,6 +239,7 @@ class FocusFlags(IntFlag):
     HOLDING = 2
     INDEX_SEEN = 4
     POWER_OFF = 8
+    STEP_LOSS = 16   #: missed half-steps detected since the last FOCUS_STATUS (latched)
 
 
 #: Absolute encoder resolution: positions are 29-bit, 2**29 counts per revolution.
@@ -348,7 +351,8 @@ class Position(NamedTuple):
 class FocusStatus(NamedTuple):
     flags: int              #: FocusFlags bits
     lvdt_adc: int           #: 10-bit ADC counts
-    pos_halfsteps: int
+    pos_halfsteps: int      #: commanded half-step counter (i16, saturating)
+    enc_counts: int         #: motor encoder count, low 16 bits (the QEI's POSCNT; wraps)
 
 
 class AxisAux(NamedTuple):
@@ -592,16 +596,17 @@ def decode_position(data) -> Position:
 
 
 # -- FOCUS_STATUS ---------------------------------------------------------------------------------
-_S_FOCUS_STATUS = struct.Struct("<BBHi")
+_S_FOCUS_STATUS = struct.Struct("<BBHhH")
 
 
-def encode_focus_status(flags: int, lvdt_adc: int, pos_halfsteps: int) -> bytes:
-    """Encode ``FOCUS_STATUS`` (0x185): FocusFlags, LVDT ADC 0..1023 and half-steps i32 (saturate)."""
+def encode_focus_status(flags: int, lvdt_adc: int, pos_halfsteps: int, enc_counts: int) -> bytes:
+    """Encode ``FOCUS_STATUS`` (0x185): FocusFlags, LVDT ADC 0..1023, half-steps i16 (saturate),
+    motor encoder count u16 (wraps: the low 16 bits, as the PIC18F4431 POSCNT register)."""
     f = "FOCUS_STATUS"
     try:
-        _flags(f, "flags", flags, 0x0F)
+        _flags(f, "flags", flags, 0x1F)
         return _S_FOCUS_STATUS.pack(_DT_FOCUS, flags, _clamp(lvdt_adc, 0, ADC_MAX),
-                                    _clamp(pos_halfsteps, I32_MIN, I32_MAX))
+                                    _clamp(pos_halfsteps, -32768, 32767), enc_counts & 0xFFFF)
     except (struct.error, TypeError) as exc:
         raise _not_int(f, exc) from None
 
@@ -609,12 +614,12 @@ def encode_focus_status(flags: int, lvdt_adc: int, pos_halfsteps: int) -> bytes:
 def decode_focus_status(data) -> FocusStatus:
     """Decode ``FOCUS_STATUS``; raises MalformedFrame."""
     _check_len(data, "FOCUS_STATUS")
-    dt, flags, lvdt, pos = _S_FOCUS_STATUS.unpack(data)
+    dt, flags, lvdt, pos, enc = _S_FOCUS_STATUS.unpack(data)
     if dt != _DT_FOCUS:
         raise _bad_type("FOCUS_STATUS", _DT_FOCUS, dt)
     if lvdt > ADC_MAX:
         raise MalformedFrame("FOCUS_STATUS", "lvdt_adc", "10-bit value 0..1023", lvdt)
-    return FocusStatus(flags, lvdt, pos)
+    return FocusStatus(flags, lvdt, pos, enc)
 
 
 # -- AXIS_AUX -------------------------------------------------------------------------------------
@@ -819,7 +824,7 @@ _add(FrameSpec("LIMIT", FC_LIMIT, READER_NODES, "node", None, (
     "reader to axis controller: on change, then every 100 ms while a limit is active"))
 
 _add(FrameSpec("FAULT", FC_FAULT, BOARD_NODES, "node", None, (
-    Field("code", 1, 8, False, 1, 5, "enum", enum=FaultCode),
+    Field("code", 1, 8, False, 1, 6, "enum", enum=FaultCode),
     Field("malformed_frames", 2, 16, False, 0, 0xFFFF, "clamp", unit="frames"),
     Field("crc_errors", 4, 16, False, 0, 0xFFFF, "clamp", unit="reads"),
     Field("detail", 6, 16, False, 0, 0xFFFF, "clamp", doc="code-specific, e.g. offending COB-ID"),
@@ -845,11 +850,13 @@ _add(FrameSpec("POSITION", FC_STATUS, READER_NODES, "node", POSITION_PERIOD_US, 
 ), Position, encode_position, decode_position, "reader to host, every 10 ms"))
 
 _add(FrameSpec("FOCUS_STATUS", FC_STATUS, (NodeId.FOCUS,), "node", FOCUS_STATUS_PERIOD_US, (
-    Field("flags", 1, 8, False, 0, 15, "flags", flag_names=("moving", "holding", "index_seen",
-                                                             "power_off")),
+    Field("flags", 1, 8, False, 0, 31, "flags", flag_names=("moving", "holding", "index_seen",
+                                                             "power_off", "step_loss")),
     Field("lvdt_adc", 2, 10, False, 0, ADC_MAX, "clamp", unit="ADC counts", dbc_unit="counts"),
-    Field("pos_halfsteps", 4, 32, True, I32_MIN, I32_MAX, "clamp", unit="half-steps",
-          dbc_unit="halfsteps"),
+    Field("pos_halfsteps", 4, 16, True, -32768, 32767, "clamp", unit="half-steps",
+          dbc_unit="halfsteps", doc="commanded half-step counter (6.25 um each)"),
+    Field("enc_counts", 6, 16, False, 0, 0xFFFF, "wrap", unit="counts", dbc_unit="counts",
+          doc="motor encoder, low 16 bits of the QEI count (5 counts per half-step)"),
 ), FocusStatus, encode_focus_status, decode_focus_status, "focus controller to host, every 250 ms"))
 
 _add(FrameSpec("AXIS_AUX", FC_AUX, AXIS_NODES, "node", AXIS_AUX_PERIOD_US, (

@@ -70,6 +70,7 @@ class PositionState:
 class FocusState:
     pos_halfsteps: int = 0
     lvdt_adc: int = 0
+    enc_counts: int = 0             # motor encoder, low 16 bits (FOCUS_STATUS b6–7)
     flags: int = 0
     t_us: int = -1
 
@@ -201,6 +202,7 @@ class HostClient:
     def _on_FocusStatus(self, cob_id: int, f, now: int) -> None:
         self.focus.pos_halfsteps, self.focus.lvdt_adc, self.focus.flags, self.focus.t_us = (
             f.pos_halfsteps, f.lvdt_adc, f.flags, now)
+        self.focus.enc_counts = f.enc_counts
 
     def _on_Heartbeat(self, cob_id: int, f, now: int) -> None:
         node = P.node_of(cob_id)

@@ -18,6 +18,12 @@ Decisions written down here:
   state of the motor equations with the LuGre static curve (the torque–velocity map of Fig. 8):
   ``N K/R ((1−p) d V − 2 K N ω) = Tc + (Ts−Tc) exp(−(ω/ωs)^δ) + σ2 ω``, solved for the duty d.
   The counter motor is back-driven and brakes (the ``2 K N ω`` term; both motors' back-EMF).
+* **RS232 telemetry** (§3.4, scenario ``rs232``): one :class:`bus.serial_link.SerialLink` per
+  board at the scenario's baud (8N1); the board's end goes to its firmware's ``serial_port``
+  (its UART), the other end to the host's :class:`host.rs232.Rs232Hub`, which is woken by the
+  link's receive callback once per packet (no per-byte or per-sample events).
+* **Focus encoder**: the focus firmware's QEI reads ``FocusPlant.motor_encoder_counts`` and is
+  told the parameter file's counts per revolution.
 """
 
 from __future__ import annotations
@@ -38,7 +44,9 @@ from boards.tuning import pi_gains_from_model
 from bus import protocol as P
 from bus.network import CanNetwork
 from bus.scheduler import PRIO_PLANT, Scheduler
+from bus.serial_link import SerialLink
 from host.client import HostClient
+from host.rs232 import Rs232Hub
 from host.scenario import Scenario, ScenarioError
 from plant.axis import AxisPlant
 from plant.focus import FocusPlant
@@ -130,6 +138,8 @@ class Telescope:
     gains: dict
     buses: list = field(default_factory=list)
     removed: set = field(default_factory=set)
+    hub: Rs232Hub | None = None
+    serial_links: dict = field(default_factory=dict)
 
     def advance_plants(self, now_us: int | None = None) -> None:
         """Advance every plant to ``now_us`` (default the scheduler's time)."""
@@ -157,6 +167,9 @@ class Telescope:
         elif fault.kind == "remove_board":
             board.power_off()  # firmware stops, no frames; the host notices missing heartbeats
             self.removed.add(fault.board)
+        elif fault.kind == "focus_stall":
+            self.focus_plant.advance_to(now_us)
+            self.focus_plant.stall(fault.halfsteps)  # the plant loses steps; the firmware must notice
         if self.client.logs:
             self.client.logs.error(now_us, fault.board, "injected-fault", fault.kind)
 
@@ -204,12 +217,24 @@ class Telescope:
                  "reset_cause": b.reset_cause, "resets": b.reset_count}
             if isinstance(b, PositionReader):
                 d["crc_errors"] = b.endat.crc_errors
+            if isinstance(b, FocusController):
+                d["missed_steps"] = b.missed_steps
+                d["plant_lost_halfsteps"] = self.focus_plant.lost_halfsteps
+            if b.uart is not None:
+                d["telemetry_packets_sent"] = b.uart.tx_writes
+                d["telemetry_late_writes"] = b.uart.tx_late
             out[name] = d
         return out
+
+    def rs232_summary(self) -> dict | None:
+        """Per-port telemetry counters of the hub (None when RS232 is off)."""
+        return self.hub.counters() if self.hub is not None else None
 
     def close(self) -> None:
         """Shut every bus down and unregister the CAN channel (idempotent)."""
         self.client.close()
+        if self.hub is not None:
+            self.hub.close()
         for b in self.buses:
             try:
                 b.shutdown()
@@ -275,6 +300,14 @@ def build_network(scenario: Scenario) -> Telescope:
         adc_to_current_a=lambda c: adc.to_volts(c) / shunt,
     )
 
+    # RS232 telemetry: one point-to-point link per board, the far ends on the host's hub
+    rs = scenario.rs232
+    hub = Rs232Hub(sched, rs.baud) if rs.enabled else None
+    links = {name: SerialLink(sched, baud=rs.baud, name=f"rs232-{name}") for name in BOARD_NAMES} if hub else {}
+
+    def board_port(name: str):
+        return links[name].a if links else None
+
     boards: dict = {}
     gains: dict = {}
     for i, axis in enumerate(("ra", "dec")):
@@ -315,8 +348,10 @@ def build_network(scenario: Scenario) -> Telescope:
             u_max=1.0 if cc.u_max is None else cc.u_max, counter_fraction=p, law=ap.drive.preload_law,
             qei_counts_per_rev=int(round(ap.encoders.incremental_counts_per_rev * ap.encoders.roller_ratio)),
             shunt_ohm=ap.motor.shunt_ohm, overcurrent_a=ap.motor.rated_current_a,
+            serial_port=board_port(f"{axis}-axis"),
         )
-        boards[f"{axis}-reader"] = PositionReader(sched, new_bus(), P.READER_NODES[i], read_position_word=read_abs)
+        boards[f"{axis}-reader"] = PositionReader(sched, new_bus(), P.READER_NODES[i], read_position_word=read_abs,
+                                                  serial_port=board_port(f"{axis}-reader"))
 
     def focus_port(fn):
         def port(*a):
@@ -328,9 +363,16 @@ def build_network(scenario: Scenario) -> Telescope:
         sched, new_bus(), P.NODE_FOCUS, on_step=focus_port(focus_plant.step),
         read_lvdt_v=focus_port(focus_plant.lvdt_voltage_v), read_index=focus_port(focus_plant.at_index),
         on_power=focus_port(focus_plant.set_power),
+        read_encoder_counts=focus_port(focus_plant.motor_encoder_counts),
+        encoder_counts_per_rev=params.focus.motor_encoder_counts_per_rev,
+        serial_port=board_port("focus"),
     )
     boards = {name: boards[name] for name in BOARD_NAMES}
+    if hub is not None:
+        for name in BOARD_NAMES:
+            hub.add_port(links[name].b, name, boards[name].node_id)
     for b in boards.values():
         b.start()
     return Telescope(scenario=scenario, scheduler=sched, params=params, network=network, plants=plants,
-                     focus_plant=focus_plant, boards=boards, client=client, gains=gains, buses=buses)
+                     focus_plant=focus_plant, boards=boards, client=client, gains=gains, buses=buses,
+                     hub=hub, serial_links=links)

@@ -18,6 +18,7 @@ from bus.errors import HostTimeout, SimulationError
 from bus.scheduler import PRIO_HOST
 from host.logs import HostLogs
 from host.report import MEASUREMENT_METHOD, AxisTrace, plot_axes, segment_metrics, write_reports
+from host.rs232 import TELEMETRY_LOG
 from host.scenario import Scenario
 
 __all__ = ["RunResult", "run_scenario", "SAMPLE_PERIOD_US"]
@@ -76,8 +77,9 @@ def run_scenario(
     scenario : Scenario
         A validated scenario (see :func:`host.scenario.load_scenario`).
     out_dir : Path or None
-        Where the four logs, ``report.json``, ``report.md`` and PNG plots go. ``None`` keeps
-        everything in memory (tests, benchmarks) and writes no files.
+        Where the four logs, ``report.json``, ``report.md`` and PNG plots go, plus
+        ``telemetry.log`` (RS232 packets, one line per 10 ms sample) when ``rs232.enabled``.
+        ``None`` keeps everything in memory (tests, benchmarks) and writes no files.
     progress : callable(done_s, total_s), optional
         Called every 0.2 simulated seconds.
     plots : bool
@@ -100,6 +102,8 @@ def run_scenario(
     wall0 = time.perf_counter()
     tel = build_network(scenario)
     logs = HostLogs(out_dir, header=f"scenario {scenario.name}; seed {scenario.seed}") if out_dir else None
+    if out_dir is not None and tel.hub is not None:
+        tel.hub.open_log(out_dir / TELEMETRY_LOG)
     client = tel.client
     client.logs = logs
     sched = tel.scheduler
@@ -236,6 +240,7 @@ def run_scenario(
         "plant": tel.plant_summary(),
         "bus_stats": tel.bus_stats(),
         "boards": tel.board_summary(),
+        "rs232": tel.rs232_summary(),
         "errors": errors + client.error_lines(),
         "realtime": pacer.stats() if pacer is not None else None,
     }
@@ -244,6 +249,8 @@ def run_scenario(
         files += list(logs.paths.values())
         if candump:
             files.append(out_dir / "candump.log")
+        if tel.hub is not None and tel.hub.log_path is not None:
+            files.append(tel.hub.log_path)
         files += list(write_reports(out_dir, report))
         if plots and traces:
             files += plot_axes(out_dir, traces, segments, window_ms)

@@ -112,6 +112,23 @@ class LogConfig(_Strict):
     rate_hz: float = Field(100.0, gt=0, le=200.0)
 
 
+#: Standard PC serial-port rates a scenario may pick for the RS232 links, baud.
+RS232_BAUDS = (38_400, 57_600, 115_200, 230_400, 460_800, 921_600)
+
+
+class Rs232Config(_Strict):
+    """RS232 telemetry links of paper §3.4 (each board → the PC's hub, packets every 250 ms).
+
+    ``enabled`` wires a serial link per board and writes ``telemetry.log``. ``baud`` is the line
+    rate (8N1); rates below 38 400 are refused because the largest packet (axis controller,
+    566 bytes = 5660 bits on the wire) would not fit in the 250 ms interval (at 19 200 baud it
+    takes 295 ms). See docs/protocol.md "RS232 telemetry" for the budget.
+    """
+
+    enabled: bool = True
+    baud: Literal[38_400, 57_600, 115_200, 230_400, 460_800, 921_600] = 115_200
+
+
 class ReportConfig(_Strict):
     """How velocity errors are measured for the report (see host/report.py)."""
 
@@ -152,9 +169,18 @@ class Fault(_Strict):
     """A fault injected at a simulated time (fault-handling tests)."""
 
     at_s: float = Field(ge=0)
-    kind: Literal["endat_bit_flip", "malformed_frame", "board_reset", "remove_board"]
+    kind: Literal["endat_bit_flip", "malformed_frame", "board_reset", "remove_board", "focus_stall"]
     board: Literal["ra-axis", "dec-axis", "ra-reader", "dec-reader", "focus"]
     bit: int | None = Field(None, ge=0, le=63)
+    halfsteps: int | None = Field(None, ge=1, le=100_000, description="focus_stall: half-steps lost")
+
+    @model_validator(mode="after")
+    def _check(self) -> "Fault":
+        if self.kind == "focus_stall" and (self.board != "focus" or self.halfsteps is None):
+            raise ValueError("focus_stall needs board: focus and halfsteps (>= 1)")
+        if self.kind != "focus_stall" and self.halfsteps is not None:
+            raise ValueError("halfsteps is only for kind focus_stall")
+        return self
 
 
 class Scenario(_Strict):
@@ -167,6 +193,7 @@ class Scenario(_Strict):
     plant: PlantConfig = Field(default_factory=PlantConfig)
     controller: ControllerConfig = Field(default_factory=ControllerConfig)
     log: LogConfig = Field(default_factory=LogConfig)
+    rs232: Rs232Config = Field(default_factory=Rs232Config)
     report: ReportConfig = Field(default_factory=ReportConfig)
     faults: list[Fault] = Field(default_factory=list)
     segments: list[Segment] = Field(min_length=1)

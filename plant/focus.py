@@ -1,9 +1,18 @@
-"""Focus mechanism: stepper half-steps -> ball-screw position, LVDT, shaft encoder index (paper §3.2, §3.3).
+"""Focus mechanism: stepper half-steps -> ball-screw position, LVDT, motor shaft encoder (paper §3.2, §3.3).
 
 Kinematic model (stated simplification): every half-step commanded moves the housing by exactly
-6.25 µm (0.9° per half-step, 1:2 belt, 5 mm/rev ball screw) at once; no motor dynamics, missed steps,
-belt stretch, screw backlash or LVDT nonlinearity. Travel is limited to ±5 mm: half-steps beyond a
-limit are lost (counted in ``lost_halfsteps``), as a stalled stepper would lose them.
+6.25 µm (0.9° per half-step, 1:2 belt, 5 mm/rev ball screw) at once; no motor dynamics, belt
+stretch, screw backlash or LVDT nonlinearity. Half-steps are lost (counted in ``lost_halfsteps``)
+only in two stated ways: beyond the ±5 mm travel limit, as a stalled stepper would lose them, and
+by fault injection (:meth:`FocusPlant.stall`: the next *n* commanded half-steps do not move the
+rotor, e.g. a jammed mechanism). No load- or rate-dependent pull-out is modelled.
+
+The motor's incremental shaft encoder (§3.2: "The motor has a incremental shaft encoder"; four
+full rotations and four index pulses over ±5 mm) turns with the rotor: counts =
+floor(half-steps travelled / 400 × counts per rev), with ``motor_encoder_counts_per_rev`` = 2000
+(assumed, see plant/parameters.yaml: 500 lines in x4 quadrature → 5 counts per half-step). It
+counts only half-steps actually travelled, so a lost half-step shows as a 5-count deviation
+between the firmware's commanded counter and the encoder.
 """
 
 from __future__ import annotations
@@ -28,7 +37,10 @@ class FocusPlant:
     halfsteps : int
         Net half-steps actually travelled since reset (position = halfsteps × 6.25 µm).
     lost_halfsteps : int
-        Half-steps commanded against a travel limit.
+        Half-steps commanded but not travelled (against a travel limit, or stalled by
+        :meth:`stall`).
+    stall_halfsteps : int
+        Commanded half-steps still to be lost by an injected stall (:meth:`stall`).
     index_pulses : int
         Index pulses seen so far (each crossing of an index position, either direction).
     power : str
@@ -49,8 +61,22 @@ class FocusPlant:
         """Place the housing at ``position_m`` (rounded to a half-step); clear counters, power on."""
         self.halfsteps = int(round(position_m / self._m_per_step))
         self.lost_halfsteps = 0
+        self.stall_halfsteps = 0
         self.index_pulses = 0
         self.power = "on"
+
+    def stall(self, n_halfsteps: int) -> None:
+        """Fault injection: the next ``n_halfsteps`` commanded half-steps are lost (the rotor
+        does not turn), as when the mechanism jams or the step rate exceeds the pull-out rate.
+
+        Raises
+        ------
+        ValueError
+            ``n_halfsteps`` < 0.
+        """
+        if int(n_halfsteps) < 0:
+            raise ValueError(f"n_halfsteps must be >= 0, got {n_halfsteps}")
+        self.stall_halfsteps += int(n_halfsteps)
 
     def set_power(self, mode: str) -> None:
         """Set ``"on"``, ``"hold"`` or ``"free"``.
@@ -67,10 +93,18 @@ class FocusPlant:
     def step(self, n_halfsteps: int) -> None:
         """Apply ``n_halfsteps`` (signed) half-steps: the ``StepDir(on_step)`` port.
 
-        Steps are ignored unless ``power == "on"``; steps past ±5 mm are lost.
+        Steps are ignored unless ``power == "on"``; steps past ±5 mm, and steps while an
+        injected stall lasts (:meth:`stall`), are lost.
         """
         if self.power != "on" or n_halfsteps == 0:
             return
+        if self.stall_halfsteps:
+            k = min(self.stall_halfsteps, abs(int(n_halfsteps)))
+            self.stall_halfsteps -= k
+            self.lost_halfsteps += k
+            n_halfsteps = int(n_halfsteps) - k * (1 if n_halfsteps > 0 else -1)
+            if n_halfsteps == 0:
+                return
         target = self.halfsteps + int(n_halfsteps)
         lim = self._limit_steps
         clamped = max(-lim, min(lim, target))
@@ -99,7 +133,8 @@ class FocusPlant:
         return p.lvdt_center_v + p.lvdt_span_v * self.position_m / p.travel_m
 
     def motor_encoder_counts(self) -> int:
-        """Motor-shaft incremental encoder count (cumulative, signed; assumed 2000 counts/rev)."""
+        """Motor-shaft incremental encoder count [counts] (cumulative, signed, 0 at mid travel;
+        ``motor_encoder_counts_per_rev`` per motor revolution, assumed 2000). The QEI port."""
         return math.floor(self.halfsteps / self._steps_per_rev * self.params.motor_encoder_counts_per_rev)
 
     def at_index(self) -> bool:

@@ -83,3 +83,60 @@ def test_malformed_focus_command_counted():
     bus.inject(p.focus_command_cob_id(), bytes([0x10, 9, 0, 0, 0, 0, 0, 0]))
     assert f.malformed_frames == 1
     assert p.decode_fault(bus.frames(p.fault_cob_id(5))[-1].data).code == p.FaultCode.MALFORMED_FRAME
+
+
+def make_with_encoder(lose=0):
+    """Focus board on a toy stepper whose encoder (5 counts per half-step) skips the first
+    ``lose`` commanded half-steps after 20 steps (a stall)."""
+    s = Scheduler()
+    bus = FakeBus()
+    st = {"enc": 0, "n": 0, "lose": lose}
+
+    def on_step(d):
+        st["n"] += 1
+        if st["n"] > 20 and st["lose"] > 0:
+            st["lose"] -= 1
+            return
+        st["enc"] += 5 * d
+
+    f = FocusController(s, bus, 5, on_step=on_step, read_encoder_counts=lambda: st["enc"])
+    f.start()
+    return s, bus, f, st
+
+
+def test_focus_status_reports_encoder_counts():
+    """FOCUS_STATUS b6–7 carries the motor encoder count (low 16 bits), 5 counts per half-step;
+    negative positions wrap as the 16-bit POSCNT does."""
+    s, bus, f, st = make_with_encoder()
+    cmd(bus, p.FocusCommand.STEP, -30)
+    s.run_until(500_000)
+    last = p.decode_focus_status(bus.frames(p.focus_status_cob_id())[-1].data)
+    assert last.pos_halfsteps == -30 and last.enc_counts == (-150) & 0xFFFF
+    assert f.enc_counts == -150 and f.missed_steps == 0
+    assert not last.flags & p.FocusFlags.STEP_LOSS
+
+
+def test_missed_steps_detected_counted_and_reported():
+    """Seven half-steps lost by the motor: the firmware counts 7 missed steps, flags STEP_LOSS in
+    the next FOCUS_STATUS only, and sends one FAULT STEP_LOSS with the count."""
+    s, bus, f, st = make_with_encoder(lose=7)
+    cmd(bus, p.FocusCommand.STEP, 100)
+    s.run_until(750_000)
+    assert f.pos_halfsteps == 100 and st["enc"] == 5 * 93
+    assert f.missed_steps == 7 and f.step_deviation == -7
+    sts = [p.decode_focus_status(m.data) for m in bus.frames(p.focus_status_cob_id())]
+    flagged = [bool(x.flags & p.FocusFlags.STEP_LOSS) for x in sts]
+    assert flagged == [True, False, False]
+    faults = [p.decode_fault(m.data) for m in bus.frames(p.fault_cob_id(5))]
+    assert [x.code for x in faults] == [p.FaultCode.STEP_LOSS]
+    assert 1 <= faults[0].detail <= 7        # sent at the first detection, while steps were lost
+
+
+def test_no_missed_steps_when_the_encoder_follows():
+    """An encoder that follows every step: no missed steps over a long move back and forth."""
+    s, bus, f, st = make_with_encoder()
+    cmd(bus, p.FocusCommand.MOVE_TO, 800)
+    s.run_until(2_100_000)
+    cmd(bus, p.FocusCommand.MOVE_TO, -800)
+    s.run_until(6_500_000)
+    assert f.pos_halfsteps == -800 and f.enc_counts == -4000 and f.missed_steps == 0

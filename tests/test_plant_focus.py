@@ -53,3 +53,19 @@ def test_power_modes(fp):
     assert fp.halfsteps == 10
     with pytest.raises(ValueError):
         fp.set_power("off")
+
+
+def test_stall_loses_the_next_halfsteps_and_the_encoder_shows_it():
+    """stall(n): the next n commanded half-steps do not move the rotor (counted in
+    lost_halfsteps); the encoder counts only travelled half-steps (5 counts each)."""
+    fp = FocusPlant(load_parameters().focus)
+    fp.stall(3)
+    for _ in range(5):
+        fp.step(1)
+    assert fp.halfsteps == 2 and fp.lost_halfsteps == 3 and fp.stall_halfsteps == 0
+    assert fp.motor_encoder_counts() == 10
+    fp.stall(2)
+    fp.step(-5)
+    assert fp.halfsteps == -1 and fp.lost_halfsteps == 5
+    with pytest.raises(ValueError):
+        fp.stall(-1)

@@ -54,7 +54,8 @@ def test_layouts_of_every_frame():
     assert p.encode_fault(p.DeviceType.POSITION_READER, p.FaultCode.ENDAT_CRC, 1, 0x203, 7) == \
         bytes([2, 2, 1, 0, 3, 2, 7, 0])
     assert p.encode_position(0b1000, 0x0102, 5) == bytes([2, 8, 2, 1, 5, 0, 0, 0])
-    assert p.encode_focus_status(1, 1023, -1) == bytes([3, 1, 0xFF, 3, 0xFF, 0xFF, 0xFF, 0xFF])
+    assert p.encode_focus_status(1, 1023, -1, 0x12345) == bytes([3, 1, 0xFF, 3, 0xFF, 0xFF, 0x45, 0x23])
+    assert p.decode_focus_status(p.encode_focus_status(0x10, 0, -40_000, -1)) == (0x10, 0, -32768, 0xFFFF)
     assert p.encode_axis_aux(7, 0x201, 3, -1) == bytes([1, 7, 1, 2, 3, 0, 0xFF, 0xFF])
     assert p.encode_axis_command(p.AxisCommand.VELOCITY, -1, 15_041) == \
         bytes([0x10, 6, 0xFF, 0]) + (15_041).to_bytes(4, "little")
