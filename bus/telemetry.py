@@ -42,7 +42,8 @@ from bus.errors import MalformedFrame
 __all__ = [
     "SYNC", "VERSION", "SAMPLES_PER_PACKET", "SAMPLE_PERIOD_US", "PACKET_PERIOD_US",
     "HEADER", "SAMPLE_FIELDS", "SAMPLE_STRUCTS", "DEVICE_OF_NODE", "Packet",
-    "packet_size", "encode_packet", "decode_packet", "crc16", "wire_time_us",
+    "packet_size", "encode_packet", "decode_packet", "check_header", "payload_struct", "crc16",
+    "wire_time_us", "HEADER_SIZE", "DEVICE_AXIS", "DEVICE_READER", "DEVICE_FOCUS",
 ]
 
 SYNC = b"\xA5\x5A"
@@ -98,6 +99,9 @@ SAMPLE_STRUCTS = {d: struct.Struct("<" + "".join(c for _, c, _ in f)) for d, f i
 #: One precompiled struct per device type for a whole packet's samples (one pack/unpack call).
 _PAYLOAD = {d: struct.Struct("<" + "".join(c for _, c, _ in f) * SAMPLES_PER_PACKET)
             for d, f in SAMPLE_FIELDS.items()}
+#: Header (without sync) + samples in one struct per device type: one pack call per packet.
+_BODY = {d: struct.Struct("<BBBBHIH" + "".join(c for _, c, _ in f) * SAMPLES_PER_PACKET)
+         for d, f in SAMPLE_FIELDS.items()}
 
 
 class Packet(NamedTuple):
@@ -144,9 +148,9 @@ def encode_packet(device_type: int, node: int, seq: int, t0_us: int, flat_values
     period_us : int
         Sample spacing, µs.
     """
-    body = HEADER.pack(VERSION, device_type, node, SAMPLES_PER_PACKET, seq & 0xFFFF,
-                       t0_us & 0xFFFFFFFF, period_us) + _PAYLOAD[device_type].pack(*flat_values)
-    return SYNC + body + _CRC.pack(crc16(body))
+    body = _BODY[device_type].pack(VERSION, device_type, node, SAMPLES_PER_PACKET, seq & 0xFFFF,
+                                   t0_us & 0xFFFFFFFF, period_us, *flat_values)
+    return b"".join((SYNC, body, _CRC.pack(binascii.crc_hqx(body, 0xFFFF))))
 
 
 def check_header(buf, i: int = 0, node: int | None = None):
