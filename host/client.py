@@ -102,6 +102,10 @@ class HostClient:
         The operator's duty-speed map for open-loop runs.
     adc_to_current_a : callable(counts) -> float
         Shunt ADC counts to motor current [A].
+    advance : callable(t_us), optional
+        How :meth:`power_on` advances simulated time; default ``scheduler.run_until``. On a real
+        bus the runner passes its real-time pacer here, so the boot wait and the PING's answer
+        window are wall-clock time (a node outside this process answers in wall-clock time).
     """
 
     bus: can.BusABC
@@ -111,6 +115,7 @@ class HostClient:
     open_loop_duty: Callable[[float, str], float] | None = None
     adc_to_current_a: Callable[[int], float] = lambda c: c * (5.0 / 1023) / 0.1
     logs: object = None
+    advance: Callable[[int], None] | None = None
 
     BOOT_US = 20_000       #: wait after power-on before the health-check PING [µs] (assumed)
     POWER_ON_US = 100_000  #: time the boards have to answer the PING [µs] (assumed)
@@ -248,12 +253,13 @@ class HostClient:
         Health
             ``ok`` is false and ``missing`` names each board that did not answer in time.
         """
+        run_until = self.advance or self.scheduler.run_until
         # let the boards finish booting (their boot heartbeats are not an answer to the ping)
-        self.scheduler.run_until(self.scheduler.now_us + self.BOOT_US)
+        run_until(self.scheduler.now_us + self.BOOT_US)
         t0 = self.scheduler.now_us
         self._send(P.host_broadcast_cob_id(), P.encode_host_broadcast(P.BroadcastCommand.PING, 0, P.ResetCause.POWER_ON), "all", "PING",
                    "power-on health check")
-        self.scheduler.run_until(t0 + self.POWER_ON_US)
+        run_until(t0 + self.POWER_ON_US)
         answered = {NODE_NAMES[n]: self.heartbeats[n][0] for n in self.expected_nodes
                     if n in self.heartbeats and self.heartbeats[n][0] >= t0}
         missing = [NODE_NAMES[n] for n in self.expected_nodes if NODE_NAMES[n] not in answered]

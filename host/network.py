@@ -257,7 +257,14 @@ def _make_bus(scenario: Scenario, channel: str) -> can.BusABC:
         return can.Bus(interface="schmidt-sim", channel=channel)
     if iface == "virtual":
         return can.Bus(interface="virtual", channel=channel, receive_own_messages=False)
-    return can.Bus(interface="socketcan", channel=scenario.bus.channel)
+    # One socket per board and one for the host: the kernel loops each frame back to the other
+    # sockets on this machine (python-can's default local_loopback) but not to its sender
+    # (receive_own_messages off), as on a real bus. python-can subscribes every socket to the
+    # controller's error frames by default; a CAN controller reports bus errors in its status
+    # registers, not as received messages, so boards and host must not see them as frames (they
+    # counted them as malformed: found on vcan0, tests/test_vcan.py).
+    return can.Bus(interface="socketcan", channel=scenario.bus.channel, receive_own_messages=False,
+                   ignore_rx_error_frames=True)
 
 
 def build_network(scenario: Scenario) -> Telescope:

@@ -150,6 +150,13 @@ def run_scenario(
     seg_spans: list[dict] = []
     total_us = int(round(scenario.duration_s * 1e6)) + client.BOOT_US + client.POWER_ON_US
     try:
+        if scenario.bus.interface == "socketcan":
+            # a real bus: simulated time must not outrun the wall clock, from power-on on (the
+            # health check's answer window is wall-clock time for nodes outside this process)
+            from host.realtime import RealtimePacer
+
+            pacer = RealtimePacer(start_sim_us=sched.now_us)
+            client.advance = lambda t_us: pacer.run_until(sched, t_us)
         healthy = client.power_on()
         if not healthy.ok:
             raise HostTimeout(
@@ -157,10 +164,6 @@ def run_scenario(
                 + f" within {client.POWER_ON_US // 1000} ms"
             )
         _schedule_faults(tel, scenario)
-        if scenario.bus.interface == "socketcan":
-            from host.realtime import RealtimePacer
-
-            pacer = RealtimePacer(start_sim_us=sched.now_us)
         sched.call_every(SAMPLE_PERIOD_US, sample, start_us=sched.now_us + SAMPLE_PHASE_US,
                          priority=PRIO_HOST, owner="host-recorder")
         for seg in scenario.segments:
