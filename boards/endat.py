@@ -25,7 +25,7 @@ bits is detected as well.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, List, Optional, Sequence, Set
+from typing import Callable, List, Optional, Sequence
 
 __all__ = [
     "CRC_POLY",
@@ -33,8 +33,11 @@ __all__ = [
     "MODE_SEND_POSITION",
     "POSITION_BITS",
     "crc5",
+    "crc5_word",
     "build_position_frame",
     "parse_position_frame",
+    "build_position_word",
+    "parse_position_word",
     "EnDatReading",
     "EnDatEncoder",
     "EnDatMaster",
@@ -60,13 +63,112 @@ def crc5(bits: Sequence[int]) -> int:
     int
         The CRC as transmitted, 0..31 (bit 4 sent first), i.e. the complemented register.
     """
-    reg = CRC_PRESET
+    return (~_crc_register(bits, CRC_PRESET)) & 0x1F
+
+
+def _crc_register(bits: Sequence[int], preset: int) -> int:
+    reg = preset
     for b in bits:
         fb = ((reg >> 4) & 1) ^ (b & 1)
         reg = (reg << 1) & 0x1F
         if fb:
             reg ^= CRC_POLY
+    return reg
+
+
+_CRC_TABLES: dict = {}
+
+
+def _crc_tables(nbits: int) -> tuple:
+    """Per-byte tables of the CRC register for an ``nbits``-bit message (built once per length).
+
+    The register update is linear over GF(2) in (register, message bit), so the final register is
+    the preset's contribution XOR the contributions of the set message bits; the tables hold
+    those contributions byte by byte (bit i of byte j = message bit 8j + i).
+    """
+    t = _CRC_TABLES.get(nbits)
+    if t is None:
+        base = _crc_register([0] * nbits, CRC_PRESET)
+        cols = []
+        for i in range(nbits):
+            unit = [0] * nbits
+            unit[i] = 1
+            cols.append(_crc_register(unit, 0))
+        tables = []
+        for j in range(0, nbits, 8):
+            row = []
+            for byte in range(256):
+                r = 0
+                for k in range(8):
+                    if byte >> k & 1 and j + k < nbits:
+                        r ^= cols[j + k]
+                row.append(r)
+            tables.append(row)
+        t = _CRC_TABLES[nbits] = (base, tuple(tuple(r) for r in tables))
+    return t
+
+
+def crc5_word(word: int, nbits: int) -> int:
+    """:func:`crc5` of an ``nbits``-bit message held in an int (bit i = the i-th bit sent).
+
+    Table-driven (a few lookups instead of one loop pass per bit); equal to ``crc5`` of the same
+    bits for every message (``tests/test_boards_endat.py``).
+
+    Parameters
+    ----------
+    word : int
+        Message bits, bit 0 transmitted first.
+    nbits : int
+        Message length (31 for F1, F2 and a 29-bit position).
+
+    Returns
+    -------
+    int
+        The CRC as transmitted, 0..31, i.e. the complemented register.
+    """
+    base, tables = _crc_tables(nbits)
+    reg = base
+    for row in tables:
+        reg ^= row[word & 0xFF]
+        word >>= 8
     return (~reg) & 0x1F
+
+
+#: 5-bit reversal: the CRC is sent MSB first, the frame word holds bit i = i-th bit sent
+_REV5 = tuple(int(f"{v:05b}"[::-1], 2) for v in range(32))
+
+
+def build_position_word(position: int, *, f1: int = 0, f2: int = 0,
+                        position_bits: int = POSITION_BITS) -> int:
+    """:func:`build_position_frame` as an int shift register: bit k = the k-th bit sent.
+
+    The reader's fast path (no per-bit Python loop); ``build_position_frame`` returns the same
+    frame as a bit list.
+    """
+    payload = (f1 & 1) | (f2 & 1) << 1 | (position & ((1 << position_bits) - 1)) << 2
+    n = 2 + position_bits
+    return 1 | payload << 1 | _REV5[crc5_word(payload, n)] << (n + 1)
+
+
+def parse_position_word(frame: int, nbits: int, position_bits: int = POSITION_BITS) -> "EnDatReading":
+    """:func:`parse_position_frame` of a frame held in an int (bit k = the k-th bit sent).
+
+    Never raises for a corrupted frame: a missing start bit, a wrong length or a CRC mismatch
+    give ``position=None``.
+    """
+    n = 2 + position_bits
+    if nbits != n + 1 + CRC_BITS or not frame & 1:
+        return EnDatReading(None, False, start_ok=False)
+    payload = (frame >> 1) & ((1 << n) - 1)
+    f1, f2 = payload & 1, (payload >> 1) & 1
+    if crc5_word(payload, n) != _REV5[(frame >> (n + 1)) & 0x1F]:
+        return EnDatReading(None, False, f1, f2)
+    return EnDatReading(payload >> 2, True, f1, f2)
+
+
+def word_to_bits(frame: int, nbits: int) -> List[int]:
+    """The bit list (transmission order) of a frame held in an int."""
+    return [(frame >> k) & 1 for k in range(nbits)]
 
 
 def build_position_frame(position: int, *, f1: int = 0, f2: int = 0,
@@ -162,25 +264,30 @@ class EnDatEncoder:
         self.read_position_word = read_position_word
         self.position_bits = position_bits
         self.frame_bits = 1 + 2 + position_bits + CRC_BITS
-        self._pending_flips: Set[int] = set()
+        self._flip_mask = 0       # bits to invert in the next frame (fault injection)
         self.alarm = False
 
     def flip_bit(self, n: int) -> None:
         """Invert bit ``n`` (0 .. frame_bits − 1) of the next transmitted frame (one shot)."""
         if not 0 <= n < self.frame_bits:
             raise ValueError(f"bit index must be 0..{self.frame_bits - 1}, got {n}")
-        self._pending_flips ^= {n}
+        self._flip_mask ^= 1 << n
+
+    def respond_word(self, mode_command: int) -> int:
+        """Answer a mode command with a frame held in an int (bit k = the k-th bit sent).
+
+        An unknown mode gets no start bit (all zeros). Pending bit flips are applied once.
+        """
+        if mode_command != MODE_SEND_POSITION:
+            return 0
+        frame = build_position_word(int(self.read_position_word()), f1=int(self.alarm),
+                                    position_bits=self.position_bits) ^ self._flip_mask
+        self._flip_mask = 0
+        return frame
 
     def respond(self, mode_command: int) -> List[int]:
-        """Answer a mode command with a frame; an unknown mode gets no start bit (all zeros)."""
-        if mode_command != MODE_SEND_POSITION:
-            return [0] * self.frame_bits
-        bits = build_position_frame(int(self.read_position_word()), f1=int(self.alarm),
-                                    position_bits=self.position_bits)
-        for n in self._pending_flips:
-            bits[n] ^= 1
-        self._pending_flips = set()
-        return bits
+        """:meth:`respond_word` as a bit list (transmission order)."""
+        return word_to_bits(self.respond_word(mode_command), self.frame_bits)
 
 
 class EnDatMaster:
@@ -212,7 +319,12 @@ class EnDatMaster:
         self.crc_errors = 0
         self.alarms = 0
         self.reads = 0
-        self.last_frame: List[int] = []
+        self._last_word = 0
+
+    @property
+    def last_frame(self) -> List[int]:
+        """The last frame received, as a bit list (transmission order); empty before any read."""
+        return word_to_bits(self._last_word, self.encoder.frame_bits) if self.reads else []
 
     def flip_bit(self, n: int) -> None:
         """Fault injection: corrupt bit ``n`` of the next frame (see :class:`EnDatEncoder`)."""
@@ -221,9 +333,9 @@ class EnDatMaster:
     def read(self) -> EnDatReading:
         """Perform one exchange; counts CRC errors and alarms. Never raises on a bad frame."""
         self.reads += 1
-        bits = self.encoder.respond(MODE_SEND_POSITION)
-        self.last_frame = bits
-        r = parse_position_frame(bits, self.position_bits)
+        frame = self.encoder.respond_word(MODE_SEND_POSITION)
+        self._last_word = frame
+        r = parse_position_word(frame, self.encoder.frame_bits, self.position_bits)
         if not r.crc_ok:
             self.crc_errors += 1
         elif r.f1 or r.f2:
@@ -235,4 +347,4 @@ class EnDatMaster:
         self.crc_errors = 0
         self.alarms = 0
         self.reads = 0
-        self.last_frame = []
+        self._last_word = 0

@@ -4,8 +4,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from boards.endat import (CRC_POLY, EnDatMaster, build_position_frame, crc5,
-                          parse_position_frame)
+from boards.endat import (CRC_POLY, EnDatMaster, build_position_frame, build_position_word,
+                          crc5, crc5_word, parse_position_frame, parse_position_word, word_to_bits)
 from boards.position_reader import ARCSEC_PER_COUNT, PositionReader
 from bus import protocol as p
 from bus.scheduler import Scheduler
@@ -53,6 +53,27 @@ def test_shift_register_equals_long_division(bits):
     assert crc5(bits) == crc_by_long_division(bits)
 
 
+@given(st.lists(st.integers(0, 1), min_size=1, max_size=40))
+def test_table_crc_equals_shift_register(bits):
+    """The table-driven CRC of the reader's fast path equals the bit-serial shift register."""
+    word = sum(b << i for i, b in enumerate(bits))
+    assert crc5_word(word, len(bits)) == crc5(bits)
+
+
+@given(pos=positions, f1=st.integers(0, 1), f2=st.integers(0, 1),
+       flips=st.sets(st.integers(0, 36), max_size=4))
+def test_word_frames_equal_bit_list_frames(pos, f1, f2, flips):
+    """The int-register frame (fast path) is the bit-list frame, and both parsers agree on it,
+    corrupted or not."""
+    bits = build_position_frame(pos, f1=f1, f2=f2)
+    word = build_position_word(pos, f1=f1, f2=f2)
+    assert word_to_bits(word, 37) == bits
+    for n in flips:
+        bits[n] ^= 1
+        word ^= 1 << n
+    assert parse_position_word(word, 37) == parse_position_frame(bits)
+
+
 @given(pos=positions, n=st.integers(0, 36))
 def test_every_single_flipped_bit_is_detected(pos, n):
     """Any single corrupted bit of the 37-bit frame makes the reading unusable."""
@@ -61,6 +82,9 @@ def test_every_single_flipped_bit_is_detected(pos, n):
     frame[n] ^= 1
     r = parse_position_frame(frame)
     assert r.position is None and not r.valid
+    m = EnDatMaster(lambda: pos)
+    m.flip_bit(n)
+    assert m.read().position is None and m.crc_errors == 1 and m.last_frame == frame
 
 
 @given(pos=positions)
