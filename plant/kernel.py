@@ -202,6 +202,31 @@ def _decay_rate(w, P):
     return aw * P[11] / sg
 
 
+@_jit
+def _predictor_friction(z, w, a_prev, hh, P):
+    """Friction torque over the predictor half step ``hh`` [N·m]: σ0 z̄ + σ1 Δz/hh + σ2 ω, with z
+    advanced exactly at the previous midpoint's decay rate (σ2 ω alone for a perfect plant)."""
+    s2 = P[13] if w >= 0.0 else P[14]
+    if P[20] != 0.0:
+        return s2 * w
+    zh, zbar = _bristle(z, w, a_prev, hh)
+    return P[11] * zbar + P[12] * (zh - z) / hh + s2 * w
+
+
+@_jit
+def _step_bristles(z, w_h, h, P):
+    """Bristle state over the full step with ω frozen at the midpoint ``w_h``.
+
+    Returns (z at step end [rad], σ0 z̄ + σ1 Δz/h [N·m], decay rate a [1/s]); all zero for a
+    perfect plant.
+    """
+    if P[20] != 0.0:
+        return 0.0, 0.0, 0.0
+    a = _decay_rate(w_h, P)
+    z1, zbar = _bristle(z, w_h, a, h)
+    return z1, P[11] * zbar + P[12] * (z1 - z) / h, a
+
+
 # ---------------------------------------------------------------------------------- twin train
 
 @_jit
@@ -215,12 +240,7 @@ def twin_midpoint(X, P, h):
     hh = 0.5 * h
     ta = mesh_torque_nm(pa * n_inv - th, wa * n_inv - w, kt, ct, hb)
     tb = mesh_torque_nm(pb * n_inv - th, wb * n_inv - w, kt, ct, hb)
-    s2 = P[13] if w >= 0.0 else P[14]
-    if P[20] != 0.0:
-        f = s2 * w
-    else:
-        zh, zbar = _bristle(z, w, a_prev, hh)
-        f = P[11] * zbar + P[12] * (zh - z) / hh + s2 * w
+    f = _predictor_friction(z, w, a_prev, hh, P)
     return (th + hh * w,
             w + hh * (ta + tb - f - load_prev) / j,
             pa + hh * wa,
@@ -259,7 +279,7 @@ def twin_finish(X, M, P, duty_a, duty_b, h, er, fr, load):
     th, w, z, pa, wa, ia, pb, wb, ib, a_prev, load_prev = X
     th_h, w_h, pa_h, wa_h, pb_h, wb_h = M
     n_inv, jm, cm, k, kt, ct, hb, j = P[0], P[1], P[2], P[3], P[4], P[5], P[6], P[7]
-    r, rl, vs, s0, s1 = P[8], P[9], P[10], P[11], P[12]
+    r, rl, vs = P[8], P[9], P[10]
     hh = 0.5 * h
     ta = mesh_torque_nm(pa_h * n_inv - th_h, wa_h * n_inv - w_h, kt, ct, hb)
     tb = mesh_torque_nm(pb_h * n_inv - th_h, wb_h * n_inv - w_h, kt, ct, hb)
@@ -268,12 +288,7 @@ def twin_finish(X, M, P, duty_a, duty_b, h, er, fr, load):
     wa1 = wa + h * (k * ia_m - ta * n_inv - cm * wa_h) / jm
     wb1 = wb + h * (-k * ib_m - tb * n_inv - cm * wb_h) / jm
     s2 = P[13] if w_h >= 0.0 else P[14]
-    if P[20] != 0.0:
-        z1, fz, a = 0.0, 0.0, 0.0
-    else:
-        a = _decay_rate(w_h, P)
-        z1, zbar = _bristle(z, w_h, a, h)
-        fz = s0 * zbar + s1 * (z1 - z) / h
+    z1, fz, a = _step_bristles(z, w_h, h, P)
     w1 = (j * w + h * (ta + tb - fz - load) - hh * s2 * w) / (j + hh * s2)
     X1 = (th + hh * (w + w1), w1, z1, pa + hh * (wa + wa1), wa1, ia1,
           pb + hh * (wb + wb1), wb1, ib1, a, load)
@@ -347,12 +362,7 @@ def rigid_midpoint(X, P, h):
     jr = P[7] + 2.0 * P[1] * n * n
     cmr = 2.0 * P[2] * n * n
     hh = 0.5 * h
-    s2 = P[13] if w >= 0.0 else P[14]
-    if P[20] != 0.0:
-        f = s2 * w
-    else:
-        zh, zbar = _bristle(z, w, a_prev, hh)
-        f = P[11] * zbar + P[12] * (zh - z) / hh + s2 * w
+    f = _predictor_friction(z, w, a_prev, hh, P)
     return th + hh * w, w + hh * (kn * (ia - ib) - f - cmr * w - load_prev) / jr
 
 
@@ -366,18 +376,13 @@ def rigid_finish(X, M, P, duty_a, duty_b, h, er, fr, load):
     kn = k * n
     jr = P[7] + 2.0 * P[1] * n * n
     cmr = 2.0 * P[2] * n * n
-    r, rl, vs, s0, s1 = P[8], P[9], P[10], P[11], P[12]
+    r, rl, vs = P[8], P[9], P[10]
     hh = 0.5 * h
     wm = n * w_h
     ia1, ia_m = _armature(ia, (duty_a * vs - k * wm) / r, er, fr, rl, h)
     ib1, ib_m = _armature(ib, (duty_b * vs + k * wm) / r, er, fr, rl, h)
     s2 = (P[13] if w_h >= 0.0 else P[14]) + cmr
-    if P[20] != 0.0:
-        z1, fz, a = 0.0, 0.0, 0.0
-    else:
-        a = _decay_rate(w_h, P)
-        z1, zbar = _bristle(z, w_h, a, h)
-        fz = s0 * zbar + s1 * (z1 - z) / h
+    z1, fz, a = _step_bristles(z, w_h, h, P)
     ta = kn * ia_m
     tb = -kn * ib_m
     w1 = (jr * w + h * (ta + tb - fz - load) - hh * s2 * w) / (jr + hh * s2)
