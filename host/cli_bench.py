@@ -33,9 +33,7 @@ def add_subparser(sub: argparse._SubParsersAction) -> None:
 def measure(scenario, seconds: float, interface: str) -> dict:
     """Build the network with ``interface`` and time ``seconds`` of simulated tracking.
 
-    Returns a dict with ``rtf`` (simulated s per wall s), ``rtf_cpu`` (simulated s per CPU s of
-    this process: on a VM it leaves out time the host steals, so it moves less between runs),
-    ``wall_s``, ``boards``, ``frames``.
+    Returns a dict with ``rtf`` (simulated s per wall s), ``wall_s``, ``boards``, ``frames``.
     """
     from host.network import build_network
 
@@ -50,13 +48,11 @@ def measure(scenario, seconds: float, interface: str) -> dict:
         seg = sc.segments[0]
         client.command_axis(seg.axis if seg.axis != "both" else "ra", seg.mode, seg.direction, seg.rate_arcsec_s)
         t0 = tel.scheduler.now_us
-        c0 = time.process_time()
         w0 = time.perf_counter()
         tel.scheduler.run_until(t0 + int(seconds * 1e6))
         wall = time.perf_counter() - w0
-        cpu = time.process_time() - c0
-        return {"rtf": seconds / wall, "rtf_cpu": seconds / cpu if cpu > 0 else float("inf"),
-                "wall_s": wall, "boards": len(tel.boards), "frames": client.frames_received}
+        return {"rtf": seconds / wall, "wall_s": wall, "boards": len(tel.boards),
+                "frames": client.frames_received}
     finally:
         tel.close()
 
@@ -95,16 +91,13 @@ def run(args: argparse.Namespace) -> int:
     from plant import kernel
 
     scenario = load_scenario(args.scenario or DEFAULT_SCENARIO)
-    best, runs_by = {}, {}
+    best = {}
     for interface in ("sim", "virtual"):
         runs = [measure(scenario, args.seconds, interface) for _ in range(max(1, args.repeat))]
-        runs_by[interface] = runs
         best[interface] = max(runs, key=lambda r: r["rtf"])
     out = {
         "rtf": round(best["sim"]["rtf"], 2),
         "rtf_naive": round(best["virtual"]["rtf"], 2),
-        "rtf_cpu": round(max(r["rtf_cpu"] for r in runs_by["sim"]), 2),
-        "rtf_naive_cpu": round(max(r["rtf_cpu"] for r in runs_by["virtual"]), 2),
         "ratio": round(best["sim"]["rtf"] / best["virtual"]["rtf"], 2),
         "boards": best["sim"]["boards"],
         "simulated_s": args.seconds,
@@ -123,10 +116,8 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(out))
     else:
-        print(f"network ({out['boards']} boards + host, in-process sim bus): {out['rtf']:8.1f}x real time"
-              f"   ({out['rtf_cpu']:.1f}x per CPU second)")
-        print(f"naive (one python-can virtual Bus per board):            {out['rtf_naive']:8.1f}x real time"
-              f"   ({out['rtf_naive_cpu']:.1f}x per CPU second)")
+        print(f"network ({out['boards']} boards + host, in-process sim bus): {out['rtf']:8.1f}x real time")
+        print(f"naive (one python-can virtual Bus per board):            {out['rtf_naive']:8.1f}x real time")
         print(f"ratio: {out['ratio']:.2f}   target rtf >= 50: {'met' if out['rtf'] >= 50 else 'NOT met'}   "
               f"max RSS {out['max_rss_mib']} MiB")
         pc, pi = out["plant_us_per_tick"], out["plant_us_per_tick_interpreted"]
