@@ -43,7 +43,8 @@ def run(args: argparse.Namespace) -> int:
             result = run_scenario(scenario, args.out, progress=progress, plots=not args.no_plots)
     rep = result.report
     console.print(f"simulated {rep['simulated_s']:.1f} s in {rep['wall_s']:.1f} s "
-                  f"({rep['simulated_s'] / max(rep['wall_s'], 1e-9):.0f}x real time)")
+                  f"({rep['simulated_s'] / max(rep['wall_s'], 1e-9):.0f}x real time, with set-up, logs and "
+                  f"candump; `schmidt-fil bench` times the network alone)")
     for s in rep["segments"]:
         if s.get("peak_error_pct") is None:
             continue

@@ -76,7 +76,7 @@ def run_scenario(
     ----------
     scenario : Scenario
         A validated scenario (see :func:`host.scenario.load_scenario`).
-    out_dir : Path or None
+    out_dir : Path, str or None
         Where the four logs, ``report.json``, ``report.md`` and PNG plots go, plus
         ``telemetry.log`` (RS232 packets, one line per 10 ms sample) when ``rs232.enabled``.
         ``None`` keeps everything in memory (tests, benchmarks) and writes no files.
@@ -100,8 +100,15 @@ def run_scenario(
     from host.network import build_network
 
     wall0 = time.perf_counter()
-    tel = build_network(scenario)
+    out_dir = Path(out_dir) if out_dir is not None else None
+    # the output directory first: if it cannot be created nothing has been built to tear down
     logs = HostLogs(out_dir, header=f"scenario {scenario.name}; seed {scenario.seed}") if out_dir else None
+    try:
+        tel = build_network(scenario)
+    except BaseException:
+        if logs is not None:
+            logs.close()
+        raise
     if out_dir is not None and tel.hub is not None:
         tel.hub.open_log(out_dir / TELEMETRY_LOG)
     client = tel.client

@@ -274,7 +274,7 @@ def parse_scenario(text: str, path: str = "<string>") -> Scenario:
         raise ScenarioError(path, 1, "", "expected a mapping at the top level (name, segments, ...)")
     lines = _line_index(node) if node is not None else {}
     try:
-        return Scenario.model_validate({**data, "source_path": path})
+        scenario = Scenario.model_validate({**data, "source_path": path})
     except ValidationError as exc:
         # an unknown key first: a misspelt key is usually why a required one is "missing"
         errs = sorted(exc.errors(), key=lambda e: e["type"] != "extra_forbidden")
@@ -291,6 +291,22 @@ def parse_scenario(text: str, path: str = "<string>") -> Scenario:
         elif "input" in err and err["type"] not in ("missing",):
             problem = f"{problem} (got {err['input']!r})"
         raise ScenarioError(path, line, _dotted(loc), problem) from None
+    # The plant parameter file and every override must resolve too, before anything runs.
+    from host.network import resolve_parameters
+
+    try:
+        resolve_parameters(scenario)
+    except ScenarioError as exc:
+        if exc.line is None:
+            prefix = ("plant", "overrides")
+            if exc.key.startswith("plant.overrides."):
+                loc = prefix + (exc.key[len("plant.overrides."):],)
+            else:
+                loc = ("plant", exc.key.split(".", 1)[1]) if exc.key.startswith("plant.") else ("plant",)
+            line = lines.get(loc) or lines.get(loc[:2]) or lines.get(("plant",))
+            raise ScenarioError(exc.path, line, exc.key, exc.problem) from None
+        raise
+    return scenario
 
 
 def _valid_keys_hint(loc: tuple) -> str:

@@ -84,13 +84,22 @@ def test_negative_duration_rejected():
 
 
 def test_unknown_plant_override_is_a_scenario_error(tmp_path):
-    """A plant override naming a parameter that does not exist fails at load with the key."""
+    """A plant override naming a parameter that does not exist fails at load (before anything
+    runs) with the file, the override's line and the valid keys."""
     p = tmp_path / "s.yaml"
-    p.write_text(GOOD + "plant:\n  overrides:\n    axes.ra.friction.sigma9_nm_rad: 1.0\n")
-    sc = load_scenario(p)
+    p.write_text(GOOD + "plant:\n  preload: low\n  overrides:\n    axes.ra.friction.sigma9_nm_rad: 1.0\n")
     with pytest.raises(ScenarioError) as e:
-        resolve_parameters(sc)
-    assert "sigma9_nm_rad" in str(e.value) and str(p) in str(e.value)
+        load_scenario(p)
+    assert e.value.line == 11 and e.value.key == "plant.overrides.axes.ra.friction.sigma9_nm_rad"
+    assert f"{p}:11:" in str(e.value) and "valid keys" in str(e.value)
+
+
+def test_missing_parameter_file_is_a_scenario_error(tmp_path):
+    p = tmp_path / "s.yaml"
+    p.write_text(GOOD + "plant:\n  parameter_file: nothere.yaml\n")
+    with pytest.raises(ScenarioError) as e:
+        load_scenario(p)
+    assert e.value.line == 9 and e.value.key == "plant.parameter_file" and "nothere.yaml" in str(e.value)
 
 
 def test_missing_file():
