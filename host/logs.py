@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TextIO
 
-__all__ = ["HostLogs", "SENSOR_COLUMNS", "LOG_FILES"]
+__all__ = ["HostLogs", "CandumpWriter", "SENSOR_COLUMNS", "LOG_FILES", "CANDUMP_LOG"]
 
 #: File names of the four logs.
 LOG_FILES = {
@@ -19,6 +19,9 @@ LOG_FILES = {
     "sensor": "sensor.log",
     "errors": "errors.log",
 }
+
+#: File name of the frame log (Linux ``candump -L`` format).
+CANDUMP_LOG = "candump.log"
 
 #: Columns of ``sensor.log`` (per axis ``ra``/``dec``), with units.
 SENSOR_COLUMNS = (
@@ -104,6 +107,42 @@ class HostLogs:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+class CandumpWriter:
+    """Writer of every frame, one line each, in the Linux ``candump -L`` log format
+    (``(timestamp) channel ID#DATA``), which ``cantools decode bus/schmidt.dbc`` and can-utils'
+    ``canplayer`` read.
+
+    Parameters
+    ----------
+    path : Path
+        The log file (created, truncated).
+    channel : str
+        Interface name written on each line (``can0``, ``vcan0``).
+    """
+
+    def __init__(self, path: Path, channel: str = "can0"):
+        self.path = Path(path)
+        self.channel = channel
+        self.frames = 0
+        self._f = self.path.open("w", encoding="ascii", buffering=1 << 16)
+
+    def write(self, msg) -> None:
+        """Log one ``can.Message``; its ``timestamp`` [s] is written as it is (simulated time on
+        the in-process bus, the kernel's wall-clock time on SocketCAN)."""
+        self._f.write(f"({msg.timestamp:.6f}) {self.channel} {msg.arbitration_id:03X}#{bytes(msg.data).hex().upper()}\n")
+        self.frames += 1
+
+    def flush(self) -> None:
+        """Push the buffered lines to the file (a long-running monitor calls this now and then)."""
+        if not self._f.closed:
+            self._f.flush()
+
+    def close(self) -> None:
+        """Flush and close (idempotent)."""
+        if not self._f.closed:
+            self._f.close()
 
 
 def _fmt(v) -> str:

@@ -267,8 +267,17 @@ def _make_bus(scenario: Scenario, channel: str) -> can.BusABC:
                    ignore_rx_error_frames=True)
 
 
-def build_network(scenario: Scenario) -> Telescope:
+def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient) -> Telescope:
     """Build clock, bus, plants, boards and host client for ``scenario`` (boards started).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        What to build (``bus``, ``plant``, ``controller``, ``rs232``).
+    host_cls : type
+        The host node's class: :class:`host.client.HostClient` (default) or a subclass such as
+        :class:`host.monitor.BusMonitor` (``schmidt-fil serve``: a passive monitor, so that a
+        host program outside the emulator commands the boards).
 
     Raises
     ------
@@ -301,7 +310,7 @@ def build_network(scenario: Scenario) -> Telescope:
     shunt = params.axes["ra"].motor.shunt_ohm
     preset = {(AxisMode.NAMES[m].lower(), axis): rates[i] for m, rates in PRESET_RATES_ARCSEC_S.items()
               for i, axis in enumerate(("ra", "dec"))}
-    client = HostClient(
+    client = host_cls(
         bus=new_bus(), scheduler=sched, preset_rates_arcsec_s=preset,
         open_loop_duty=lambda rate, axis: open_loop_duty(rate, params.axes[axis]),
         adc_to_current_a=lambda c: adc.to_volts(c) / shunt,

@@ -16,12 +16,12 @@ import numpy as np
 
 from bus.errors import HostTimeout, SimulationError
 from bus.scheduler import PRIO_HOST
-from host.logs import HostLogs
+from host.logs import CANDUMP_LOG, CandumpWriter, HostLogs
 from host.report import MEASUREMENT_METHOD, AxisTrace, plot_axes, segment_metrics, write_reports
 from host.rs232 import TELEMETRY_LOG
 from host.scenario import Scenario
 
-__all__ = ["RunResult", "run_scenario", "SAMPLE_PERIOD_US"]
+__all__ = ["RunResult", "run_scenario", "sensor_row", "schedule_faults", "SAMPLE_PERIOD_US", "SAMPLE_PHASE_US"]
 
 #: Host sampling period of the status data [µs]: the axis controllers publish every 10 ms (paper
 #: §3.4: 10 ms samples).
@@ -121,7 +121,6 @@ def run_scenario(
 
     def sample(now_us: int) -> None:
         rec.t_us.append(now_us)
-        row = []
         for axis in ("ra", "dec"):
             st = client.axes[axis]
             plant = tel.plants[axis]
@@ -135,23 +134,15 @@ def run_scenario(
                 ib=st.current_b_a,
                 truth=plant.axis_angle_rad,
             )
-            row += [st.mode_name, f"{setpoints[axis]:.4f}", st.rate_arcsec_s, st.u, st.counts,
-                    st.current_a_a, st.current_b_a, client.positions[axis].pos_counts]
         n_samples[0] += 1
         if logs is not None and n_samples[0] % sensor_every == 0:
-            row += [client.focus.pos_halfsteps, client.focus.lvdt_adc]
-            logs.sensor(now_us, tuple(row))
+            logs.sensor(now_us, sensor_row(client, setpoints))
 
     candump = None
     if out_dir is not None and tel.network is not None:
         # every frame on the bus, in Linux candump log format (`cantools decode` reads it)
-        candump = (out_dir / "candump.log").open("w", encoding="ascii", buffering=1 << 16)
-        chan = "can0"
-
-        def tap(msg) -> None:
-            candump.write(f"({msg.timestamp:.6f}) {chan} {msg.arbitration_id:03X}#{bytes(msg.data).hex().upper()}\n")
-
-        tel.network.add_tap(tap)
+        candump = CandumpWriter(out_dir / CANDUMP_LOG, "can0")
+        tel.network.add_tap(candump.write)
     errors: list[str] = []
     pacer = None
     seg_spans: list[dict] = []
@@ -170,7 +161,7 @@ def run_scenario(
                 "power-on health check failed: no answer from " + ", ".join(healthy.missing)
                 + f" within {client.POWER_ON_US // 1000} ms"
             )
-        _schedule_faults(tel, scenario)
+        schedule_faults(tel, scenario)
         sched.call_every(SAMPLE_PERIOD_US, sample, start_us=sched.now_us + SAMPLE_PHASE_US,
                          priority=PRIO_HOST, owner="host-recorder")
         for seg in scenario.segments:
@@ -258,7 +249,7 @@ def run_scenario(
     if out_dir is not None:
         files += list(logs.paths.values())
         if candump:
-            files.append(out_dir / "candump.log")
+            files.append(candump.path)
         if tel.hub is not None and tel.hub.log_path is not None:
             files.append(tel.hub.log_path)
         files += list(write_reports(out_dir, report))
@@ -267,8 +258,28 @@ def run_scenario(
     return RunResult(report=report, files=files)
 
 
-def _schedule_faults(tel, scenario: Scenario) -> None:
-    """Schedule the scenario's injected faults on the simulated clock."""
+def sensor_row(client, setpoints: dict) -> tuple:
+    """One ``sensor.log`` row after ``t_s`` (columns :data:`host.logs.SENSOR_COLUMNS`): what the
+    host client has decoded from the status frames, with each axis's setpoint.
+
+    Parameters
+    ----------
+    client : host.client.HostClient
+        The host client whose decoded status is logged.
+    setpoints : dict
+        ``{"ra": ..., "dec": ...}``, the setpoint rate of each axis [arcsec/s].
+    """
+    row = []
+    for axis in ("ra", "dec"):
+        st = client.axes[axis]
+        row += [st.mode_name, f"{setpoints[axis]:.4f}", st.rate_arcsec_s, st.u, st.counts,
+                st.current_a_a, st.current_b_a, client.positions[axis].pos_counts]
+    row += [client.focus.pos_halfsteps, client.focus.lvdt_adc]
+    return tuple(row)
+
+
+def schedule_faults(tel, scenario: Scenario) -> None:
+    """Schedule the scenario's injected faults on the simulated clock (``at_s`` after now)."""
     for f in scenario.faults:
         t_us = tel.scheduler.now_us + int(round(f.at_s * 1e6))
         tel.scheduler.call_at(t_us, lambda now_us, f=f: tel.inject_fault(f, now_us), priority=PRIO_HOST,

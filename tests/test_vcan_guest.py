@@ -1,6 +1,6 @@
-"""The socketcan path on a real Linux kernel: tests/test_vcan.py (marked ``vcan``) runs inside a
-QEMU guest that has ``vcan0`` (``.ci/vcan-guest/run``; this machine's kernel has no AF_CAN), and
-every one of its tests must pass there.
+"""The socketcan path on a real Linux kernel: tests/test_vcan.py and tests/test_vcan_serve.py
+(marked ``vcan``) run inside a QEMU guest that has ``vcan0`` (``.ci/vcan-guest/run``; this
+machine's kernel has no AF_CAN), and every one of their tests must pass there.
 
 Skipped, with the reason, where the guest cannot boot (no QEMU or no cached guest kernel: run
 ``.ci/vcan-guest/run setup`` as root on Debian 12). Under CI (``CI`` set), where ``.ci/run`` sets
@@ -21,6 +21,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 GUEST = ROOT / ".ci" / "vcan-guest" / "run"
+#: The vcan-marked test files the guest runs, in this order (serve last: it reuses the warm-up).
+VCAN_TEST_FILES = ("tests/test_vcan.py", "tests/test_vcan_serve.py")
 #: Wall-clock limit of the guest run [s]; it normally takes about a minute (docs/socketcan.md).
 GUEST_TIMEOUT_S = 600
 
@@ -47,7 +49,7 @@ def test_vcan_suite_passes_inside_a_linux_guest(tmp_path):
     junit = out / "vcan-junit.xml"
     cmd = ["bash", str(GUEST), "--out", str(out), "--timeout", str(GUEST_TIMEOUT_S), "--env", "SCHMIDT_FIL_JIT",
            "--", sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "--color=no", "-q", "-rs",
-           "-m", "vcan", f"--junitxml={junit}", "tests/test_vcan.py"]
+           "-m", "vcan", f"--junitxml={junit}", *VCAN_TEST_FILES]
     # numba's first compile takes ~90 s under software emulation and cannot be cached for a fresh
     # clone; the interpreted kernel is the same code (tests/test_plant_kernel.py checks they agree)
     env = {**os.environ, "SCHMIDT_FIL_JIT": "0"}
@@ -61,10 +63,11 @@ def test_vcan_suite_passes_inside_a_linux_guest(tmp_path):
     suite = suite if suite.tag == "testsuite" else suite.find("testsuite")
     counts = {k: int(suite.get(k, 0)) for k in ("tests", "failures", "errors", "skipped")}
     assert counts["failures"] == counts["errors"] == counts["skipped"] == 0, f"{counts}\n{log}"
-    assert counts["tests"] >= 7, counts
+    assert counts["tests"] >= 10, counts
     assert proc.returncode == 0, log
     figures = json.loads((out / "vcan-figures.json").read_text())
     assert figures["tracking_vcan0"]["realtime"]["steps"] > 0 and figures["candump_frames"] > 0
+    assert figures["serve_vcan0"]["status_frames_per_wall_s"] > 0
     ctl = out / ".vcan-guest"
     print(f"vcan guest: {counts['tests']} tests passed; boot to command {(ctl / 'boot_s').read_text().strip()} s, "
           f"guest uptime at end {(ctl / 'end_s').read_text().strip()} s, wall {wall_s:.1f} s; figures {figures}")
