@@ -176,11 +176,7 @@ class Board:
         if cause not in RESET_CAUSES:
             raise ValueError(f"reset cause must be one of {sorted(RESET_CAUSES)}, got {cause!r}")
         was_running = self.started
-        for timer in self._timers:
-            timer.reset()
-        self.can.reset()
-        for p in self._all_peripherals():
-            p.reset()
+        self._hardware_reset()
         self.reset_cause = cause
         self.reset_count += 1
         self.started = False
@@ -188,14 +184,18 @@ class Board:
         if was_running:
             self.start()
 
-    def power_off(self) -> None:
-        """Remove the board's power: ISRs stop, outputs go to their reset state (PWM duties 0),
-        nothing is sent or received until :meth:`start` (power on again, cause ``power_on``)."""
+    def _hardware_reset(self) -> None:
+        """Timers, CAN controller and peripherals to their reset state (reset and power-off)."""
         for timer in self._timers:
             timer.reset()
         self.can.reset()
         for p in self._all_peripherals():
             p.reset()
+
+    def power_off(self) -> None:
+        """Remove the board's power: ISRs stop, outputs go to their reset state (PWM duties 0),
+        nothing is sent or received until :meth:`start` (power on again, cause ``power_on``)."""
+        self._hardware_reset()
         self.started = False
         self.reset_cause = "power_on"
 
