@@ -109,6 +109,19 @@ def test_step_runs_one_event():
     assert s.step() is False
 
 
+def test_step_from_a_callback_is_refused_and_loses_no_event():
+    """A re-entrant step() raises and leaves the pending event queued."""
+    s = Scheduler()
+    seen = []
+    s.call_at(5, lambda now: s.step())
+    s.call_at(9, seen.append)
+    with pytest.raises(SimulationError, match="step called from inside a callback"):
+        s.run_until(5)
+    assert s.next_event_us() == 9
+    s.run_until(10)
+    assert seen == [9]
+
+
 def test_exception_is_wrapped_with_owner_time_and_cause():
     """A callback's exception stops the run as SimulationError naming owner and now_us."""
     s = Scheduler()
