@@ -8,8 +8,9 @@ Boards (paper §3.3-§3.4; node ids from docs/architecture.md):
 
 Peripherals live in :mod:`boards.peripherals`; PI law and drive laws in :mod:`boards.control`;
 gain tuning from the plant model in :mod:`boards.tuning`; the EnDat frame in :mod:`boards.endat`.
-``boards`` never imports ``plant``: boards meet the plant through port callables wired by
-``host/network.py``.
+Which boards the network has (names, node ids, firmware class, plant ports): the registry,
+:mod:`boards.registry`. ``boards`` never imports ``plant``: boards meet the plant through port
+callables wired by ``host/network.py``.
 """
 
 from __future__ import annotations
@@ -21,13 +22,5 @@ from boards.focus_controller import FocusController
 from boards.position_reader import PositionReader
 from boards.tuning import PiGains, pi_gains_from_model
 
-#: Board kinds by name (scenario files use these names).
-BOARD_KINDS = {
-    "axis_controller": AxisController,
-    "position_reader": PositionReader,
-    "focus_controller": FocusController,
-}
-
 __all__ = ["AxisController", "AxisMode", "PRESET_RATES_ARCSEC_S", "DRIVE_LAWS", "IncrementalPI",
-           "Board", "FocusController", "PositionReader", "PiGains", "pi_gains_from_model",
-           "BOARD_KINDS"]
+           "Board", "FocusController", "PositionReader", "PiGains", "pi_gains_from_model"]

@@ -35,9 +35,9 @@ from bus import protocol as proto
 from boards.control import DRIVE_LAWS, IncrementalPI
 from boards.firmware_base import (FAULT_LIMIT_STOP, FAULT_OVERCURRENT, STATE_FAULT, Board)
 from boards.peripherals import Adc, Pwm, Qei, Timer
-from boards.tuning import ARCSEC_PER_RAD
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_ISR, Scheduler
+from bus.units import ARCSEC_PER_RAD, ARCSEC_PER_REV, Q15_FULL_SCALE, check_counter_fraction, duty_to_q15, q15_to_duty
 
 __all__ = ["AxisController", "AxisMode", "PRESET_RATES_ARCSEC_S", "QEI_COUNTS_PER_REV",
            "DEFAULT_KP", "DEFAULT_KI"]
@@ -165,8 +165,7 @@ class AxisController(Board):
                  serial_port=None) -> None:
         if law not in DRIVE_LAWS:
             raise ValueError(f"unknown drive law {law!r}; valid: {sorted(DRIVE_LAWS)}")
-        if not 0.0 <= counter_fraction < 1.0:
-            raise ValueError(f"counter_fraction must be in [0, 1), got {counter_fraction}")
+        check_counter_fraction(counter_fraction)
         if limit_stop not in ("hold", "coast"):
             raise ValueError("limit_stop must be 'hold' or 'coast'")
         self.axis = (node_id - 1) if axis is None else int(axis)
@@ -181,7 +180,7 @@ class AxisController(Board):
         self.law = DRIVE_LAWS[law]
         self.status_every_ticks = int(status_every_ticks)
         self.qei_counts_per_rev = int(qei_counts_per_rev)
-        self.arcsec_per_count = 1_296_000.0 / self.qei_counts_per_rev
+        self.arcsec_per_count = ARCSEC_PER_REV / self.qei_counts_per_rev
         self.rate_per_count = self.arcsec_per_count / (self.tick_us * 1e-6)   # (″/s) per count
         self.shunt_ohm = float(shunt_ohm)
         self.overcurrent_a = float(overcurrent_a)
@@ -284,8 +283,7 @@ class AxisController(Board):
         self._write_outputs()
 
         if self.ticks % self.status_every_ticks == 0:
-            u_q15 = int(round(self.pi.u * 32767))
-            u_q15 = -32767 if u_q15 < -32767 else (32767 if u_q15 > 32767 else u_q15)
+            u_q15 = duty_to_q15(self.pi.u)
             flags = self.status_flags()
             delta = -32768 if delta < -32768 else (32767 if delta > 32767 else delta)
             self.queue(proto.axis_status_cob_id(self.node_id),
@@ -368,9 +366,9 @@ class AxisController(Board):
             return
         sign = self._direction(cmd, c.direction)
         if cmd == AxisMode.OPEN_LOOP:
-            if abs(c.value) > 32767:
-                raise MalformedFrame("AXIS_COMMAND", "value", "|duty_q15| <= 32767", c.value)
-            u = max(-self.u_max, min(self.u_max, sign * c.value / 32767.0))
+            if abs(c.value) > Q15_FULL_SCALE:
+                raise MalformedFrame("AXIS_COMMAND", "value", f"|duty_q15| <= {Q15_FULL_SCALE}", c.value)
+            u = max(-self.u_max, min(self.u_max, sign * q15_to_duty(c.value)))
             if self._refuse(u, cmd):
                 return
             self.tripped = False

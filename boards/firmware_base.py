@@ -166,6 +166,12 @@ class Board:
     def on_start(self) -> None:
         """Hook for subclasses after boot."""
 
+    def report_counters(self) -> dict:
+        """Counters of this board kind for the report's board row (besides the ones every board
+        has: malformed frames, state, reset cause and count). A board kind with counters of its
+        own overrides this; the report (``host.network.Telescope.board_summary``) needs no change."""
+        return {}
+
     def reset(self, cause: str = "power_on") -> None:
         """Processor reset; see the module docstring for what survives.
 

@@ -161,6 +161,10 @@ class FocusController(Board):
         self._loop_passes = 0
         self._stepped = False            # half-steps issued since the last encoder check
 
+    def report_counters(self) -> dict:
+        """Missed half-steps (see :meth:`boards.firmware_base.Board.report_counters`)."""
+        return {"missed_steps": self.missed_steps}
+
     def on_start(self) -> None:
         if self.qei is not None:
             self.qei.reset()             # POSCNT cleared at boot: the present count is the zero

@@ -35,11 +35,12 @@ from boards.endat import POSITION_BITS, EnDatMaster
 from boards.firmware_base import FAULT_CRC, Board
 from boards.peripherals import Timer
 from bus.scheduler import PRIO_ISR, Scheduler
+from bus.units import ARCSEC_PER_REV
 
 __all__ = ["PositionReader", "DEFAULT_LIMITS_DEG", "POS_LOW", "POS_HIGH", "POS_CRC", "POS_INVALID"]
 
 COUNTS_PER_REV = 1 << POSITION_BITS
-ARCSEC_PER_COUNT = 1_296_000.0 / COUNTS_PER_REV
+ARCSEC_PER_COUNT = ARCSEC_PER_REV / COUNTS_PER_REV
 
 #: Assumed soft limits per axis (0 RA, 1 DEC), degrees of axis angle.
 DEFAULT_LIMITS_DEG = {0: (-95.0, 95.0), 1: (-40.0, 110.0)}
@@ -128,6 +129,10 @@ class PositionReader(Board):
         self._send_limit = False
 
     # ------------------------------------------------------------------ API
+    def report_counters(self) -> dict:
+        """EnDat CRC errors (see :meth:`boards.firmware_base.Board.report_counters`)."""
+        return {"crc_errors": self.endat.crc_errors}
+
     @property
     def crc_errors(self) -> int:
         """EnDat frames rejected since reset."""

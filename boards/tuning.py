@@ -33,9 +33,12 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
-__all__ = ["PiGains", "pi_gains_from_model", "ARCSEC_PER_RAD"]
+from bus.units import ARCSEC_PER_RAD, check_counter_fraction
 
-ARCSEC_PER_RAD = 648_000.0 / math.pi
+__all__ = ["PiGains", "pi_gains_from_model", "design_axis_gains", "GAINS_SOURCE"]
+
+#: How :func:`design_axis_gains` got its gains (written into the report).
+GAINS_SOURCE = "boards.tuning.pi_gains_from_model (SIMC on the eq. 6 SOPDT model, low-preload σ2)"
 
 
 @dataclass(frozen=True)
@@ -150,8 +153,7 @@ def pi_gains_from_model(*, inertia_kg_m2: float, sigma2_nm_s_rad: float, gear_ra
             raise ValueError(f"{name} must be > 0, got {v}")
     if sigma2_nm_s_rad < 0 or rotor_inertia_kg_m2 < 0:
         raise ValueError("sigma2_nm_s_rad and rotor_inertia_kg_m2 must be >= 0")
-    if not 0.0 <= counter_fraction < 1.0:
-        raise ValueError(f"counter_fraction must be in [0, 1), got {counter_fraction}")
+    check_counter_fraction(counter_fraction)
 
     n2 = gear_ratio * gear_ratio
     jr = inertia_kg_m2 / n2 + rotor_inertia_kg_m2
@@ -179,3 +181,34 @@ def pi_gains_from_model(*, inertia_kg_m2: float, sigma2_nm_s_rad: float, gear_ra
                    k_motor_rad_s_per_v=k_motor, tau1_s=tau1, tau2_s=tau2, theta_s=theta,
                    tau1_eff_s=tau1e, theta_eff_s=thetae, tau_c_s=tc, tick_s=dt,
                    jr_kg_m2=jr, sigma2r_nm_s_rad=s2r)
+
+
+def design_axis_gains(axis, counter_fraction: float, tick_us: int) -> PiGains:
+    """The PI gains an axis controller runs, from the axis's plant parameters.
+
+    Decision (paper §4 "Using the estimated parameters …"): the gains come from the
+    **low-preload** friction set, since the paper tuned its PI for the reduced-preload model and
+    kept the gains ("we preferred keeping the gains high"); running the high-preload scenario with
+    the same controller is what Fig. 13(a)/(b) compare.
+
+    Parameters
+    ----------
+    axis : plant.params.AxisParameters
+        Read by attribute only (``inertia_kg_m2``, ``friction.low.sigma2_nm_s_rad``,
+        ``gear.ratio``, ``motor.*``): ``boards`` never imports ``plant``.
+    counter_fraction : float
+        p the firmware runs (the scenario's override, else the parameter file's).
+    tick_us : int
+        Control tick [µs].
+
+    Returns
+    -------
+    PiGains
+    """
+    m = axis.motor
+    return pi_gains_from_model(
+        inertia_kg_m2=axis.inertia_kg_m2, sigma2_nm_s_rad=axis.friction.low.sigma2_nm_s_rad,
+        gear_ratio=axis.gear.ratio, r_ohm=m.resistance_ohm, l_h=m.inductance_h,
+        k_nm_a=m.torque_constant_nm_a, rotor_inertia_kg_m2=2 * m.rotor_inertia_kg_m2,  # both rotors turn with the axis
+        counter_fraction=counter_fraction, supply_v=m.supply_v, tick_us=tick_us,
+    )

@@ -47,6 +47,7 @@ from pathlib import Path
 from typing import Callable, NamedTuple
 
 from bus.errors import EncodeError, MalformedFrame
+from bus.units import Q15_FULL_SCALE  # noqa: F401  (re-exported: bus.protocol.Q15_FULL_SCALE)
 
 # ------------------------------------------------------------------------------------------------
 # Nodes, device types, function codes
@@ -244,7 +245,6 @@ class FocusFlags(IntFlag):
 
 #: Absolute encoder resolution: positions are 29-bit, 2**29 counts per revolution.
 POS_COUNTS_PER_REV = 1 << 29
-Q15_FULL_SCALE = 32767
 ADC_MAX = 1023
 
 # ------------------------------------------------------------------------------------------------
@@ -550,7 +550,7 @@ def encode_axis_status(mode: int, flags: int, u_q15: int, qei_counts: int) -> by
         _flags(f, "flags", flags, 0x0F)
         q = qei_counts & 0xFFFFFF
         return _S_AXIS_STATUS.pack(_DT_AXIS, mode, flags,
-                                   -32767 if u_q15 < -32767 else (32767 if u_q15 > 32767 else u_q15),
+                                   -Q15_FULL_SCALE if u_q15 < -Q15_FULL_SCALE else (Q15_FULL_SCALE if u_q15 > Q15_FULL_SCALE else u_q15),
                                    q & 0xFFFF, q >> 16)
     except (struct.error, TypeError) as exc:
         raise _not_int(f, exc) from None
@@ -834,8 +834,8 @@ _add(FrameSpec("AXIS_STATUS", FC_STATUS, AXIS_NODES, "node", AXIS_STATUS_PERIOD_
     Field("mode", 1, 8, False, 0, 8, "enum", enum=AxisMode),
     Field("flags", 2, 8, False, 0, 15, "flags", flag_names=("limit_stop", "anti_windup",
                                                              "over_current", "fault")),
-    Field("u_q15", 3, 16, True, -32767, 32767, "clamp", unit="duty Q15",
-          dbc_name="control_effort", factor=1 / 32767, dbc_unit="duty",
+    Field("u_q15", 3, 16, True, -Q15_FULL_SCALE, Q15_FULL_SCALE, "clamp", unit="duty Q15",
+          dbc_name="control_effort", factor=1 / Q15_FULL_SCALE, dbc_unit="duty",
           doc="control effort U, ±32767 = ±100 % duty"),
     Field("qei_counts", 5, 24, False, 0, (1 << 24) - 1, "wrap", unit="counts", dbc_unit="counts",
           doc="low 24 bits of the cumulative QEI count"),
@@ -895,7 +895,7 @@ _add(FrameSpec("HEARTBEAT", FC_HEARTBEAT, ALL_NODES, "node", HEARTBEAT_PERIOD_US
 AXIS_COMMAND_VALUE_SIGNALS: dict[AxisCommand, tuple[str, float, str]] = {
     c: (f"{c.name.lower()}_value", 1.0, "") for c in AxisCommand}
 AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.VELOCITY] = ("velocity", 0.001, "arcsec/s")
-AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.OPEN_LOOP] = ("open_loop_duty", 1 / 32767, "duty")
+AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.OPEN_LOOP] = ("open_loop_duty", 1 / Q15_FULL_SCALE, "duty")
 AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.SET_KP] = ("kp", 1e-6, "duty/(arcsec/s)")
 AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.SET_KI] = ("ki", 1e-6, "duty/(arcsec/s)")
 

@@ -13,7 +13,7 @@ def add_subparser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from host.network import resolve_parameters
+    from host.scenario import resolve_parameters
     from host.scenario import load_scenario
 
     for path in args.scenarios:

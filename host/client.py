@@ -15,20 +15,14 @@ import can
 from bus import protocol as P
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_HOST, Scheduler
-from host.report import ARCSEC_PER_COUNT
+from boards.registry import NODE_NAMES, nodes_of_kind
+from bus.units import TICK_US, duty_to_q15, q15_to_duty
 
 __all__ = ["HostClient", "Health", "AxisState", "NODE_NAMES", "AXIS_NODES"]
 
-#: Board name of each node id (docs/architecture.md).
-NODE_NAMES = {
-    P.NODE_RA_AXIS: "ra-axis",
-    P.NODE_DEC_AXIS: "dec-axis",
-    P.NODE_RA_READER: "ra-reader",
-    P.NODE_DEC_READER: "dec-reader",
-    P.NODE_FOCUS: "focus",
-}
-AXIS_NODES = {"ra": P.NODE_RA_AXIS, "dec": P.NODE_DEC_AXIS}
-READER_NODES = {"ra": P.NODE_RA_READER, "dec": P.NODE_DEC_READER}
+AXIS_NODES = nodes_of_kind("axis_controller")       #: {"ra": 1, "dec": 2}
+READER_NODES = nodes_of_kind("position_reader")    #: {"ra": 3, "dec": 4}
+_AXIS_OF_NODE = {node: axis for axis, node in AXIS_NODES.items()}
 
 _MODE_CMD = {
     "stop": P.AxisCommand.STOP,
@@ -102,6 +96,9 @@ class HostClient:
         The operator's duty-speed map for open-loop runs.
     adc_to_current_a : callable(counts) -> float
         Shunt ADC counts to motor current [A].
+    arcsec_per_count : dict
+        ``{"ra": ..., "dec": ...}``: incremental-encoder resolution at the axis [arcsec/count]
+        the host scales QEI counts with; the assembly sets it from the axis boards that run.
     advance : callable(t_us), optional
         How :meth:`power_on` advances simulated time; default ``scheduler.run_until``. On a real
         bus the runner passes its real-time pacer here, so the boot wait and the PING's answer
@@ -116,6 +113,7 @@ class HostClient:
     adc_to_current_a: Callable[[int], float] = lambda c: c * (5.0 / 1023) / 0.1
     logs: object = None
     advance: Callable[[int], None] | None = None
+    arcsec_per_count: dict = field(default_factory=dict)
 
     BOOT_US = 20_000       #: wait after power-on before the health-check PING [µs] (assumed)
     POWER_ON_US = 100_000  #: time the boards have to answer the PING [µs] (assumed)
@@ -123,6 +121,7 @@ class HostClient:
 
     def __post_init__(self) -> None:
         self.axes = {"ra": AxisState(), "dec": AxisState()}
+        self.setpoints = {"ra": 0.0, "dec": 0.0}   # the rate each axis was last commanded [arcsec/s]
         self.positions = {"ra": PositionState(), "dec": PositionState()}
         self.focus = FocusState()
         self.heartbeats: dict[int, tuple[int, int, int]] = {}   # node -> (t_us, state, malformed)
@@ -168,7 +167,7 @@ class HostClient:
 
     def _on_AxisStatus(self, cob_id: int, f, now: int) -> None:
         node = P.node_of(cob_id)
-        axis = "ra" if node == P.NODE_RA_AXIS else "dec"
+        axis = _AXIS_OF_NODE[node]
         st = self.axes[axis]
         raw = f.qei_counts
         if st._raw24 is None:
@@ -179,7 +178,7 @@ class HostClient:
                 d -= self.QEI_WRAP
             st.counts += d
         st._raw24 = raw
-        st.u = f.u_q15 / 32767.0
+        st.u = q15_to_duty(f.u_q15)
         st.flags = f.flags
         st.t_us = now
         if st.mode != f.mode or axis not in self._last_mode:
@@ -191,11 +190,11 @@ class HostClient:
         self._last_mode[axis] = f.mode
 
     def _on_AxisAux(self, cob_id: int, f, now: int) -> None:
-        node = P.node_of(cob_id)
-        st = self.axes["ra" if node == P.NODE_RA_AXIS else "dec"]
+        axis = _AXIS_OF_NODE[P.node_of(cob_id)]
+        st = self.axes[axis]
         st.current_a_a = self.adc_to_current_a(f.adc_a)
         st.current_b_a = self.adc_to_current_a(f.adc_b)
-        st.rate_arcsec_s = f.qei_delta * ARCSEC_PER_COUNT / 0.005
+        st.rate_arcsec_s = f.qei_delta * self.arcsec_per_count[axis] / (TICK_US * 1e-6)
 
     def _on_Position(self, cob_id: int, f, now: int) -> None:
         node = P.node_of(cob_id)
@@ -303,7 +302,7 @@ class HostClient:
             if rate_arcsec_s is None or self.open_loop_duty is None:
                 raise ValueError("open_loop needs rate_arcsec_s and an open-loop duty map")
             duty = self.open_loop_duty(rate_arcsec_s, axis)
-            value = int(round(max(0.0, min(1.0, duty)) * 32767))
+            value = duty_to_q15(max(0.0, min(1.0, duty)))
             sp = direction * rate_arcsec_s
         elif mode == "stop":
             sp = 0.0
@@ -311,6 +310,7 @@ class HostClient:
             sp = direction * self.preset_rates_arcsec_s[(mode, axis)]
         self._send(P.axis_command_cob_id(node), P.encode_axis_command(cmd, direction, value),
                    NODE_NAMES[node], mode.upper(), f"direction={direction:+d} value={value}")
+        self.setpoints[axis] = float(sp)
         return float(sp)
 
     def command_focus_move_to(self, halfsteps: int) -> None:

@@ -19,7 +19,8 @@ from typing import Callable
 import can
 
 from bus import protocol as P
-from host.client import AXIS_NODES, NODE_NAMES, HostClient
+from boards.registry import NODE_NAMES
+from host.client import AXIS_NODES, HostClient
 
 __all__ = ["BusMonitor", "PassiveHostError"]
 
@@ -56,7 +57,6 @@ class BusMonitor(HostClient):
         super().__post_init__()
         self.frames_by_id: dict[int, int] = {}
         self.commands_seen: dict[str, int] = {}
-        self.setpoints = {"ra": 0.0, "dec": 0.0}
         self.limit_frames = 0
         self._handlers[P.AxisCommandFrame] = self._on_AxisCommandFrame
         self._handlers[P.FocusCommandFrame] = self._on_FocusCommandFrame

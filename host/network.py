@@ -1,131 +1,84 @@
 """Build the emulated telescope network from a scenario: the ONE place where boards, bus and
-plant are wired together.
+plant are wired together (the assembly).
 
-Boards never see plant objects: each peripheral gets a *port* (a callable) built here —
-PWM duty → motor voltages, shaft angle → QEI counts / EnDat position word, armature current →
-shunt voltage → ADC. The plants are advanced lazily to the scheduler's time by every port and
-also by a 5 ms plant event on the same clock (so the plant keeps moving when a board is reset
-or removed).
+Which boards exist comes from the registry (:mod:`boards.registry`); this module only knows how
+to reach the plant for each *port* a board's firmware asks for (:data:`PORTS`) and which
+settings a board kind takes from the parameter file and the scenario (:data:`SETTINGS`).
+Boards never see plant objects: each port is a callable — PWM duty → motor voltages, shaft
+angle → QEI counts / EnDat position word, armature current → shunt voltage → ADC. The plants
+are advanced lazily to the scheduler's time by every port and also by a 50 ms plant event on the
+same clock (so the plant keeps moving when a board is reset or removed).
 
 Decisions written down here:
 
-* **Gains** come from :func:`boards.tuning.pi_gains_from_model` with the axis parameters of the
-  loaded parameter file and the **low-preload** friction set: the paper tuned its PI for the
-  reduced-preload model (§4 "Using the estimated parameters …") and kept the gains ("we preferred
-  keeping the gains high"); running the high-preload scenario with the same controller is what
-  Fig. 13(a)/(b) compare. A scenario may override ``kp``/``ki``.
-* **Open-loop duty** (the operator's duty–speed map for the open-loop runs of §4): the steady
-  state of the motor equations with the LuGre static curve (the torque–velocity map of Fig. 8):
-  ``N K/R ((1−p) d V − 2 K N ω) = Tc + (Ts−Tc) exp(−(ω/ωs)^δ) + σ2 ω``, solved for the duty d.
-  The counter motor is back-driven and brakes (the ``2 K N ω`` term; both motors' back-EMF).
+* **Gains**: :func:`boards.tuning.design_axis_gains` (low-preload σ2, paper §4); a scenario may
+  override ``kp``/``ki``.
+* **Open-loop duty** (the operator's duty–speed map): :func:`plant.drive_map.open_loop_duty`
+  with the counter fraction the axis firmware runs (read from the board, so a scenario's
+  ``controller.<axis>.counter_fraction`` reaches the map too).
+* **Encoder resolution** the host uses (rates in ``sensor.log`` and the report): read from the
+  axis boards that ran (``AxisController.arcsec_per_count``), i.e. the parameter file's encoder.
 * **RS232 telemetry** (§3.4, scenario ``rs232``): one :class:`bus.serial_link.SerialLink` per
   board at the scenario's baud (8N1); the board's end goes to its firmware's ``serial_port``
   (its UART), the other end to the host's :class:`host.rs232.Rs232Hub`, which is woken by the
   link's receive callback once per packet (no per-byte or per-sample events).
 * **Focus encoder**: the focus firmware's QEI reads ``FocusPlant.motor_encoder_counts`` and is
   told the parameter file's counts per revolution.
+* **Reports read what ran**: :meth:`Telescope.plant_summary` reads the plants (their friction
+  after effects, their parameters), :meth:`Telescope.controller_summary` and
+  :meth:`Telescope.board_summary` read the boards; nothing reads the input files again.
 """
 
 from __future__ import annotations
 
 import itertools
-import math
 from dataclasses import dataclass, field
-from pathlib import Path
+from typing import Callable
 
 import can
 
 import bus as _bus_pkg  # noqa: F401  (registers the schmidt-sim python-can interface)
-from boards.axis_controller import PRESET_RATES_ARCSEC_S, AxisController, AxisMode
-from boards.focus_controller import FocusController
+from boards.axis_controller import PRESET_RATES_ARCSEC_S, AxisMode
 from boards.peripherals import Adc
-from boards.position_reader import PositionReader
-from boards.tuning import pi_gains_from_model
+from boards.registry import BOARD_NAMES, BOARDS, REGISTRY, BoardInstance
+from boards.tuning import GAINS_SOURCE, design_axis_gains
 from bus import protocol as P
 from bus.network import CanNetwork
 from bus.scheduler import PRIO_PLANT, Scheduler
 from bus.serial_link import SerialLink
+from bus.units import TICK_US
+from host import faults as _faults
 from host.client import HostClient
 from host.rs232 import Rs232Hub
-from host.scenario import Scenario, ScenarioError
+from host.scenario import Scenario, resolve_parameters
 from plant.axis import AxisPlant
+from plant.drive_map import open_loop_duty
 from plant.focus import FocusPlant
-from plant.params import ParameterError, PlantParameters, load_parameters
+from plant.params import PlantParameters
 
-__all__ = ["Telescope", "build_network", "resolve_parameters", "open_loop_duty", "BOARD_NAMES"]
+__all__ = ["Telescope", "build_network", "PORTS", "SETTINGS", "BOARD_NAMES"]
 
-#: Board names (scenario ``faults[].board``) in node order.
-BOARD_NAMES = ("ra-axis", "dec-axis", "ra-reader", "dec-reader", "focus")
 #: Plant keep-alive period [µs]: every port advances the plant to the current time before it
 #: reads or writes, so the plant is exact at each ISR; this event only keeps it moving when no
 #: board touches it (a board reset or removed), and bounds the lazy catch-up.
 PLANT_PERIOD_US = 50_000
-ARCSEC_PER_RAD = 648_000.0 / math.pi
+AXES = ("ra", "dec")
 _unique = itertools.count(1)
-
-
-def resolve_parameters(scenario: Scenario) -> PlantParameters:
-    """Load the scenario's plant parameter file with its overrides.
-
-    Raises
-    ------
-    ScenarioError
-        The parameter file is missing or an override names an unknown parameter (the message
-        names the scenario file and the ``plant.overrides`` key).
-    """
-    pc = scenario.plant
-    path = None
-    if pc.parameter_file:
-        path = Path(pc.parameter_file)
-        if not path.is_absolute():
-            path = Path(scenario.source_path).parent / path
-        if not path.exists():
-            raise ScenarioError(scenario.source_path, None, "plant.parameter_file", f"file not found: {path}")
-    overrides: dict = {}
-    if pc.preload is not None:
-        overrides["axes.ra.friction.preload"] = pc.preload
-        overrides["axes.dec.friction.preload"] = pc.preload
-    if pc.perfect is not None:
-        overrides["perfect"] = pc.perfect
-    overrides.update(pc.overrides)
-    try:
-        return load_parameters(path, overrides or None)
-    except ParameterError as exc:
-        key = next((k for k in pc.overrides if k in str(exc)), None)
-        raise ScenarioError(scenario.source_path, None, f"plant.overrides.{key}" if key else "plant", str(exc)) from None
-
-
-def open_loop_duty(rate_arcsec_s: float, axis_params, counter_fraction: float | None = None) -> float:
-    """Duty that holds ``rate_arcsec_s`` in steady state by the model's duty–speed map.
-
-    Parameters
-    ----------
-    rate_arcsec_s : float
-        Target axis rate magnitude [arcsec/s].
-    axis_params : plant.params.AxisParameters
-        The axis (motor, gear, drive, active friction set).
-    counter_fraction : float, optional
-        p of the drive law; default the parameter file's.
-
-    Returns
-    -------
-    float
-        Forward-motor duty (0..1, clipped).
-    """
-    m, g, fr = axis_params.motor, axis_params.gear, axis_params.friction
-    fs = getattr(fr, fr.preload)
-    p = axis_params.drive.counter_fraction if counter_fraction is None else counter_fraction
-    w = abs(rate_arcsec_s) / ARCSEC_PER_RAD
-    t_fric = fs.tc_nm + (fs.ts_nm - fs.tc_nm) * math.exp(-((w / fs.omega_s_rad_s) ** fr.delta)) + fs.sigma2_nm_s_rad * w
-    n, k, r = g.ratio, m.torque_constant_nm_a, m.resistance_ohm
-    t_fric += 2 * m.viscous_nm_s_rad * n * n * w  # motor bearing drag of both motors, reflected
-    v = (t_fric * r / (n * k) + 2 * k * n * w) / (1.0 - p)
-    return max(0.0, min(1.0, v / m.supply_v))
 
 
 @dataclass
 class Telescope:
-    """The built network: clock, CAN bus, plants, boards and host client."""
+    """The built network: clock, CAN bus, plants, boards and host client.
+
+    Attributes
+    ----------
+    boards : dict
+        Board name -> firmware object, in node order (names from :mod:`boards.registry`).
+    plants : dict
+        ``"ra"``/``"dec"`` -> :class:`plant.axis.AxisPlant`.
+    gains : dict
+        Per axis: where the PI gains came from and the tuning model's numbers.
+    """
 
     scenario: Scenario
     scheduler: Scheduler
@@ -148,58 +101,47 @@ class Telescope:
             p.advance_to(t)
         self.focus_plant.advance_to(t)
 
-    # -- fault injection -------------------------------------------------------------------
     def inject_fault(self, fault, now_us: int) -> None:
-        """Apply one scenario fault (see :class:`host.scenario.Fault`)."""
-        board = self.boards[fault.board]
-        if fault.kind == "endat_bit_flip":
-            if not isinstance(board, PositionReader):
-                raise ScenarioError(self.scenario.source_path, None, "faults", f"endat_bit_flip needs a reader board, not {fault.board}")
-            board.endat.flip_bit(fault.bit if fault.bit is not None else 0)
-        elif fault.kind == "malformed_frame":
-            node = board.node_id
-            cob = P.axis_command_cob_id(node) if node in P.AXIS_NODES else (
-                P.focus_command_cob_id() if node == P.NODE_FOCUS else P.host_broadcast_cob_id())
-            # a frame with the wrong device type byte and a short DLC: the board must count it
-            self.client.send_raw(cob, bytes([0xEE, 0x42, 0x00]), fault.board)
-        elif fault.kind == "board_reset":
-            board.reset("watchdog")  # a running board boots again by itself
-        elif fault.kind == "remove_board":
-            board.power_off()  # firmware stops, no frames; the host notices missing heartbeats
-            self.removed.add(fault.board)
-        elif fault.kind == "focus_stall":
-            self.focus_plant.advance_to(now_us)
-            self.focus_plant.stall(fault.halfsteps)  # the plant loses steps; the firmware must notice
-        if self.client.logs:
-            self.client.logs.error(now_us, fault.board, "injected-fault", fault.kind)
+        """Apply one scenario fault (the table :data:`host.faults.FAULTS`)."""
+        _faults.inject(self, fault, now_us)
 
-    # -- summaries for the report --------------------------------------------------------------
+    def axis_board(self, axis: str):
+        """The axis controller of ``axis`` (``"ra"``/``"dec"``)."""
+        return self.boards[_AXIS_BOARD[axis]]
+
+    # -- summaries for the report: the state of what ran -------------------------------------
     def controller_summary(self) -> dict:
+        """Per axis: the gains, limits and drive law the axis firmware runs."""
         out = {}
-        for axis, b in (("ra", self.boards["ra-axis"]), ("dec", self.boards["dec-axis"])):
-            g = self.gains[axis]
+        for axis in AXES:
+            b, g = self.axis_board(axis), self.gains[axis]
             out[axis] = {"kp_duty_per_arcsec_s": b.kp0, "ki_duty_per_arcsec_s_tick": b.ki0,
                          "u_max": b.u_max, "counter_fraction": b.counter_fraction, "drive_law": b.law_name,
                          "gains_source": g["source"], **{k: v for k, v in g.items() if k != "source"}}
         return out
 
     def plant_summary(self) -> dict:
+        """Per axis: the friction the plant integrates (after effects), its inertia, drive model
+        and current peaks; read from the plant objects, not the parameter file."""
         out = {"perfect": self.params.perfect}
         for axis, p in self.plants.items():
-            ap = self.params.axes[axis]
-            fs = getattr(ap.friction, ap.friction.preload)
-            out[axis] = {
-                "preload": ap.friction.preload, "sigma2_nm_s_rad": fs.sigma2_nm_s_rad, "tc_nm": fs.tc_nm,
-                "ts_nm": fs.ts_nm, "omega_s_rad_s": fs.omega_s_rad_s, "sigma0_nm_rad": ap.friction.sigma0_nm_rad,
-                "sigma1_nm_s_rad": ap.friction.sigma1_nm_s_rad, "inertia_kg_m2": ap.inertia_kg_m2,
-                "drive_model": ap.drive_model, "max_substep_us": ap.max_substep_us,
+            ap, fr = p.params, p.friction
+            d = {
+                "preload": ap.friction.preload, "sigma2_nm_s_rad": fr.sigma2_pos_nm_s_rad, "tc_nm": fr.tc_pos_nm,
+                "ts_nm": fr.ts_nm, "omega_s_rad_s": fr.omega_s_rad_s, "sigma0_nm_rad": fr.sigma0_nm_rad,
+                "sigma1_nm_s_rad": fr.sigma1_nm_s_rad, "inertia_kg_m2": ap.inertia_kg_m2,
+                "drive_model": ap.drive_model, "max_substep_us": p.max_substep_us,
                 "peak_current_a": [round(float(i), 3) for i in p.peak_current_a],
                 "time_over_rating_s": [round(t / 1e6, 3) for t in p.current_over_rating_us],
-                "effects": [e.get("kind") if isinstance(e, dict) else getattr(e, "kind", str(e)) for e in ap.effects],
+                "effects": [e.kind for e in p.effects],
             }
+            if fr.tc_neg_nm != fr.tc_pos_nm or fr.sigma2_neg_nm_s_rad != fr.sigma2_pos_nm_s_rad:
+                d.update(tc_neg_nm=fr.tc_neg_nm, sigma2_neg_nm_s_rad=fr.sigma2_neg_nm_s_rad)  # asymmetric
+            out[axis] = d
         return out
 
     def bus_stats(self) -> dict:
+        """Frames, bits, load and latency of the emulated bus (a note on other buses)."""
         if self.network is None:
             return {"interface": self.scenario.bus.interface, "note": "no bit timing on this bus"}
         s = self.network.stats()
@@ -211,14 +153,14 @@ class Telescope:
         }
 
     def board_summary(self) -> dict:
+        """One row per board (registry order): node, counters, state; each board adds its own
+        counters through ``report_counters()``."""
         out = {}
         for name, b in self.boards.items():
             d = {"node": b.node_id, "malformed_frames": b.malformed_frames, "state": _state_name(b),
                  "reset_cause": b.reset_cause, "resets": b.reset_count}
-            if isinstance(b, PositionReader):
-                d["crc_errors"] = b.endat.crc_errors
-            if isinstance(b, FocusController):
-                d["missed_steps"] = b.missed_steps
+            d.update(b.report_counters())
+            if BOARDS[name][0].kind == "focus_controller":   # the plant's truth beside the firmware's count
                 d["plant_lost_halfsteps"] = self.focus_plant.lost_halfsteps
             if b.uart is not None:
                 d["telemetry_packets_sent"] = b.uart.tx_writes
@@ -244,6 +186,9 @@ class Telescope:
             self.network.close()
 
 
+_AXIS_BOARD = {i.axis: name for name, (s, i) in BOARDS.items() if s.kind == "axis_controller"}
+
+
 def _state_name(board) -> str:
     try:
         return P.NodeState(board.state).name
@@ -267,6 +212,67 @@ def _make_bus(scenario: Scenario, channel: str) -> can.BusABC:
                    ignore_rx_error_frames=True)
 
 
+@dataclass
+class _Build:
+    """What port factories and settings see while the network is built."""
+
+    scenario: Scenario
+    scheduler: Scheduler
+    params: PlantParameters
+    plants: dict
+    focus_plant: FocusPlant
+    gains: dict
+
+
+def _advancing(plant, sched: Scheduler, fn: Callable) -> Callable:
+    """``fn`` wrapped so that ``plant`` is advanced to the scheduler's time first."""
+    def port(*args):
+        plant.advance_to(sched.now_us)
+        return fn(*args)
+    return port
+
+
+#: Port name (a firmware keyword argument, ``BoardSpec.ports``) -> factory(build, instance) ->
+#: the callable handed to the firmware. A new board kind that needs a plant quantity no board has
+#: yet adds one factory here.
+PORTS: dict[str, Callable[[_Build, BoardInstance], Callable]] = {
+    "read_qei_counts": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, b.plants[i.axis].qei_counts),
+    "on_duties": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, b.plants[i.axis].set_duties),
+    "shunt_a_v": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, lambda p=b.plants[i.axis]: p.shunt_voltage_v("a")),
+    "shunt_b_v": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, lambda p=b.plants[i.axis]: p.shunt_voltage_v("b")),
+    "read_position_word": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, b.plants[i.axis].absolute_counts),
+    "on_step": lambda b, i: _advancing(b.focus_plant, b.scheduler, b.focus_plant.step),
+    "on_power": lambda b, i: _advancing(b.focus_plant, b.scheduler, b.focus_plant.set_power),
+    # the kinematic focus plant changes only on step()/set_power(), so its read-only sensors
+    # need no advance_to: direct ports (cheaper; sampled every 10 ms with RS232)
+    "read_lvdt_v": lambda b, i: b.focus_plant.lvdt_voltage_v,
+    "read_index": lambda b, i: b.focus_plant.at_index,
+    "read_encoder_counts": lambda b, i: b.focus_plant.motor_encoder_counts,
+}
+
+
+def _axis_settings(b: _Build, i: BoardInstance) -> dict:
+    ap = b.params.axes[i.axis]
+    cc = getattr(b.scenario.controller, i.axis)
+    p = ap.drive.counter_fraction if cc.counter_fraction is None else cc.counter_fraction
+    g = design_axis_gains(ap, p, TICK_US)
+    gd = g.as_dict()
+    b.gains[i.axis] = {"source": GAINS_SOURCE if cc.kp is None and cc.ki is None else "scenario override",
+                       **{f"model_{k}": v for k, v in gd.items() if k not in ("kp", "ki")}}
+    return dict(kp=g.kp if cc.kp is None else cc.kp, ki=g.ki if cc.ki is None else cc.ki,
+                u_max=1.0 if cc.u_max is None else cc.u_max, counter_fraction=p, law=ap.drive.preload_law,
+                qei_counts_per_rev=int(round(ap.encoders.incremental_counts_per_rev * ap.encoders.roller_ratio)),
+                shunt_ohm=ap.motor.shunt_ohm, overcurrent_a=ap.motor.rated_current_a)
+
+
+#: Board kind -> settings(build, instance) -> extra firmware keyword arguments taken from the
+#: parameter file and the scenario. Kinds without an entry take none.
+SETTINGS: dict[str, Callable[[_Build, BoardInstance], dict]] = {
+    "axis_controller": _axis_settings,
+    "focus_controller": lambda b, i: {"encoder_counts_per_rev": b.params.focus.motor_encoder_counts_per_rev},
+}
+
+
 def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient) -> Telescope:
     """Build clock, bus, plants, boards and host client for ``scenario`` (boards started).
 
@@ -278,6 +284,12 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient) -
         The host node's class: :class:`host.client.HostClient` (default) or a subclass such as
         :class:`host.monitor.BusMonitor` (``schmidt-fil serve``: a passive monitor, so that a
         host program outside the emulator commands the boards).
+
+    Returns
+    -------
+    Telescope
+        On the ``sim`` bus, ``tel.network.channel`` is the channel a host of your own opens with
+        ``can.Bus(interface="schmidt-sim", channel=...)`` (docs/serve.md).
 
     Raises
     ------
@@ -296,7 +308,7 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient) -
         buses.append(b)
         return b
 
-    plants = {axis: AxisPlant(params.axes[axis], name=axis) for axis in ("ra", "dec")}
+    plants = {axis: AxisPlant(params.axes[axis], name=axis) for axis in AXES}
     focus_plant = FocusPlant(params.focus)
 
     def plant_tick(now_us: int) -> None:
@@ -306,13 +318,16 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient) -
     sched.call_every(PLANT_PERIOD_US, plant_tick, start_us=0, priority=PRIO_PLANT, owner="plant")
 
     # host first, so it hears the boards' boot heartbeats
+    boards: dict = {}
     adc = Adc({})
     shunt = params.axes["ra"].motor.shunt_ohm
     preset = {(AxisMode.NAMES[m].lower(), axis): rates[i] for m, rates in PRESET_RATES_ARCSEC_S.items()
-              for i, axis in enumerate(("ra", "dec"))}
+              for i, axis in enumerate(AXES)}
     client = host_cls(
         bus=new_bus(), scheduler=sched, preset_rates_arcsec_s=preset,
-        open_loop_duty=lambda rate, axis: open_loop_duty(rate, params.axes[axis]),
+        # the duty-speed map with the counter fraction the axis firmware runs
+        open_loop_duty=lambda rate, axis: open_loop_duty(rate, params.axes[axis],
+                                                         boards[_AXIS_BOARD[axis]].counter_fraction),
         adc_to_current_a=lambda c: adc.to_volts(c) / shunt,
     )
 
@@ -321,76 +336,18 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient) -
     hub = Rs232Hub(sched, rs.baud) if rs.enabled else None
     links = {name: SerialLink(sched, baud=rs.baud, name=f"rs232-{name}") for name in BOARD_NAMES} if hub else {}
 
-    def board_port(name: str):
-        return links[name].a if links else None
-
-    boards: dict = {}
-    gains: dict = {}
-    for i, axis in enumerate(("ra", "dec")):
-        ap, plant = params.axes[axis], plants[axis]
-        cc = getattr(scenario.controller, axis)
-        p = ap.drive.counter_fraction if cc.counter_fraction is None else cc.counter_fraction
-        g = pi_gains_from_model(
-            inertia_kg_m2=ap.inertia_kg_m2, sigma2_nm_s_rad=ap.friction.low.sigma2_nm_s_rad,
-            gear_ratio=ap.gear.ratio, r_ohm=ap.motor.resistance_ohm, l_h=ap.motor.inductance_h,
-            k_nm_a=ap.motor.torque_constant_nm_a, rotor_inertia_kg_m2=2 * ap.motor.rotor_inertia_kg_m2,  # both rotors turn with the axis
-            counter_fraction=p, supply_v=ap.motor.supply_v, tick_us=5_000,
-        )
-        gd = g.as_dict()
-        gains[axis] = {"source": "boards.tuning.pi_gains_from_model (SIMC on the eq. 6 SOPDT model, low-preload σ2)"
-                       if cc.kp is None and cc.ki is None else "scenario override",
-                       **{f"model_{k}": v for k, v in gd.items() if k not in ("kp", "ki")}}
-
-        def read_qei(plant=plant) -> int:
-            plant.advance_to(sched.now_us)
-            return plant.qei_counts()
-
-        def on_duties(a: float, b: float, plant=plant) -> None:
-            plant.advance_to(sched.now_us)
-            plant.set_duties(a, b)
-
-        def shunt_v(motor: str, plant=plant) -> float:
-            plant.advance_to(sched.now_us)
-            return plant.shunt_voltage_v(motor)
-
-        def read_abs(plant=plant) -> int:
-            plant.advance_to(sched.now_us)
-            return plant.absolute_counts()
-
-        boards[f"{axis}-axis"] = AxisController(
-            sched, new_bus(), P.AXIS_NODES[i], read_qei_counts=read_qei, on_duties=on_duties,
-            shunt_a_v=lambda s=shunt_v: s("a"), shunt_b_v=lambda s=shunt_v: s("b"),
-            kp=g.kp if cc.kp is None else cc.kp, ki=g.ki if cc.ki is None else cc.ki,
-            u_max=1.0 if cc.u_max is None else cc.u_max, counter_fraction=p, law=ap.drive.preload_law,
-            qei_counts_per_rev=int(round(ap.encoders.incremental_counts_per_rev * ap.encoders.roller_ratio)),
-            shunt_ohm=ap.motor.shunt_ohm, overcurrent_a=ap.motor.rated_current_a,
-            serial_port=board_port(f"{axis}-axis"),
-        )
-        boards[f"{axis}-reader"] = PositionReader(sched, new_bus(), P.READER_NODES[i], read_position_word=read_abs,
-                                                  serial_port=board_port(f"{axis}-reader"))
-
-    def focus_port(fn):
-        def port(*a):
-            focus_plant.advance_to(sched.now_us)
-            return fn(*a)
-        return port
-
-    boards["focus"] = FocusController(
-        sched, new_bus(), P.NODE_FOCUS, on_step=focus_port(focus_plant.step),
-        read_lvdt_v=focus_plant.lvdt_voltage_v, read_index=focus_plant.at_index,
-        on_power=focus_port(focus_plant.set_power),
-        # the kinematic focus plant changes only on step()/set_power(), so its read-only sensors
-        # need no advance_to: direct ports (cheaper; sampled every 10 ms with RS232)
-        read_encoder_counts=focus_plant.motor_encoder_counts,
-        encoder_counts_per_rev=params.focus.motor_encoder_counts_per_rev,
-        serial_port=board_port("focus"),
-    )
-    boards = {name: boards[name] for name in BOARD_NAMES}
+    build = _Build(scenario, sched, params, plants, focus_plant, {})
+    for name, (spec, inst) in BOARDS.items():
+        kwargs = {port: PORTS[port](build, inst) for port in spec.ports}
+        kwargs.update(SETTINGS.get(spec.kind, lambda b, i: {})(build, inst))
+        boards[name] = spec.firmware(sched, new_bus(), inst.node_id, name=name,
+                                     serial_port=links[name].a if links else None, **kwargs)
+    client.arcsec_per_count = {axis: boards[_AXIS_BOARD[axis]].arcsec_per_count for axis in AXES}
     if hub is not None:
         for name in BOARD_NAMES:
             hub.add_port(links[name].b, name, boards[name].node_id)
     for b in boards.values():
         b.start()
     return Telescope(scenario=scenario, scheduler=sched, params=params, network=network, plants=plants,
-                     focus_plant=focus_plant, boards=boards, client=client, gains=gains, buses=buses,
+                     focus_plant=focus_plant, boards=boards, client=client, gains=build.gains, buses=buses,
                      hub=hub, serial_links=links)

@@ -1,4 +1,10 @@
-"""Real-time pacing of the simulated clock, for runs on a real bus (SocketCAN ``vcan0``/``can0``).
+"""The two clocks a session runs on: simulated time as fast as it goes, or paced to the wall clock.
+
+:class:`SimClock` advances a scheduler in steps (the one stepping loop of the emulator, used by
+``schmidt-fil run``, ``serve`` and the host's power-on); :class:`RealtimePacer` subclasses it
+and only adds the wait for the wall clock before each step, as SimPy's ``RealtimeEnvironment``
+subclasses its ``Environment``. A session picks the paced clock on a real bus (SocketCAN
+``vcan0``/``can0``).
 
 The scheduler still owns simulated time; the pacer only holds the run back so that simulated
 time does not get ahead of the wall clock, sleeping to absolute deadlines (FACTS.md: lateness
@@ -12,11 +18,73 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-__all__ = ["RealtimePacer"]
+__all__ = ["SimClock", "RealtimePacer", "clock_for", "SIM_STEP_US"]
+
+#: Step of the simulated clock [µs]: how often a run reports progress or a session checks for
+#: a stop request when nothing paces it.
+SIM_STEP_US = 200_000
+
+
+class SimClock:
+    """Simulated time as fast as the machine runs it, in steps of ``step_us``.
+
+    Parameters
+    ----------
+    step_us : int
+        Step between checks of ``should_stop`` and calls of ``on_step`` [µs] (default 0.2 s).
+    """
+
+    step_us: int = SIM_STEP_US
+
+    def __init__(self, step_us: int = SIM_STEP_US) -> None:
+        self.step_us = int(step_us)
+
+    def wait_for(self, sim_us: int) -> None:
+        """Nothing to wait for in simulated time (the paced clock sleeps here)."""
+
+    def run_until(self, scheduler, t_us: int | None, should_stop=None, on_step=None) -> bool:
+        """Run ``scheduler`` to ``t_us`` (``None``: until ``should_stop()``) in steps of
+        ``step_us``, each after :meth:`wait_for` its end.
+
+        Parameters
+        ----------
+        scheduler : bus.scheduler.Scheduler
+        t_us : int or None
+            Simulated end time [µs].
+        should_stop : callable() -> bool, optional
+            Checked before every step.
+        on_step : callable(), optional
+            Called after every step (progress bars, log flushes).
+
+        Returns
+        -------
+        bool
+            True when ``t_us`` was reached, False when ``should_stop()`` ended it.
+        """
+        while True:
+            if should_stop is not None and should_stop():
+                return False
+            if t_us is not None and scheduler.now_us >= t_us:
+                return True
+            nxt = scheduler.now_us + self.step_us if t_us is None else min(t_us, scheduler.now_us + self.step_us)
+            self.wait_for(nxt)
+            scheduler.run_until(nxt)
+            if on_step is not None:
+                on_step()
+
+    def stats(self) -> dict | None:
+        """Pacing statistics (none in simulated time)."""
+        return None
+
+
+def clock_for(interface: str, start_sim_us: int) -> SimClock:
+    """The clock for a bus interface: paced on ``socketcan`` (nodes outside this process answer
+    in wall-clock time), simulated otherwise."""
+    return RealtimePacer(start_sim_us=start_sim_us) if interface == "socketcan" else SimClock()
 
 
 @dataclass
-class RealtimePacer:
+class RealtimePacer(SimClock):
     """Hold simulated time to the wall clock.
 
     Parameters
@@ -49,15 +117,6 @@ class RealtimePacer:
         else:
             self.late_us.append(int((now - deadline) * 1e6))
             self._wall_last = now
-
-    def run_until(self, scheduler, t_us: int) -> None:
-        """Run ``scheduler`` to ``t_us`` in steps of ``step_us``, each no earlier than the wall
-        clock allows (what the runner's main loop does; the host's health check uses it so that
-        its answer window is wall-clock time on a real bus)."""
-        while scheduler.now_us < t_us:
-            nxt = min(t_us, scheduler.now_us + self.step_us)
-            self.wait_for(nxt)
-            scheduler.run_until(nxt)
 
     def stats(self) -> dict:
         """Pacing statistics: steps paced and late, p50/p99/max lateness of the late steps [µs],

@@ -31,16 +31,12 @@ from pathlib import Path
 import numpy as np
 
 __all__ = [
-    "ARCSEC_PER_COUNT",
     "MEASUREMENT_METHOD",
     "window_rates",
     "segment_metrics",
     "write_reports",
     "plot_axes",
 ]
-
-#: Incremental encoder resolution at the axis [arcsec/count] (4.608e6 counts/rev, 1:24.5 roller).
-ARCSEC_PER_COUNT = 1_296_000.0 / (4_608_000 * 24.5)
 
 #: Smallest velocity-error RMS [% of setpoint] called a limit cycle (see the module docstring).
 LIMIT_CYCLE_MIN_RMS_PCT = 1.0
@@ -114,7 +110,9 @@ class AxisTrace:
 
     Attributes (all ndarrays of shape (n,)): ``t_s`` [s], ``counts`` (unwrapped QEI counts),
     ``u`` (control effort, duty −1..1), ``mode`` (int), ``setpoint_arcsec_s``,
-    ``current_a_a`` / ``current_b_a`` [A] (from the shunt ADC), ``truth_angle_rad`` (plant).
+    ``current_a_a`` / ``current_b_a`` [A] (from the shunt ADC), ``truth_angle_rad`` (plant);
+    and ``arcsec_per_count``, the incremental-encoder resolution at the axis that scales
+    ``counts`` (the axis controller's, from the parameter file's encoder).
     """
 
     t_s: np.ndarray
@@ -125,6 +123,7 @@ class AxisTrace:
     current_a_a: np.ndarray
     current_b_a: np.ndarray
     truth_angle_rad: np.ndarray
+    arcsec_per_count: float
 
 
 def segment_metrics(
@@ -169,12 +168,12 @@ def segment_metrics(
     if len(t) < 3 or (t[-1] - t[0]) < 2 * w_s:
         raise ValueError(f"measured span {t0_s:.3f}-{t1_s:.3f} s holds fewer than two {window_ms} ms windows")
     sp = float(setpoint_arcsec_s)
-    pos_arcsec = trace.counts[sel] * ARCSEC_PER_COUNT
+    pos_arcsec = trace.counts[sel] * trace.arcsec_per_count
     _, v = window_rates(t, pos_arcsec, w_s)
     err = (v - sp) / abs(sp) * 100.0
     # sliding 10 ms-step version for the oscillation test
     _, v_slide = window_rates(t, pos_arcsec, w_s, 0.010)
-    quant_pct = ARCSEC_PER_COUNT / w_s / abs(sp) * 100.0
+    quant_pct = trace.arcsec_per_count / w_s / abs(sp) * 100.0
     dt = float(np.median(np.diff(t)))
     lc, period_n, acf_peak = _limit_cycle((v_slide - sp) / abs(sp) * 100.0, max(1, round(w_s / 0.010)),
                                           max(3 * quant_pct, LIMIT_CYCLE_MIN_RMS_PCT))
@@ -288,7 +287,7 @@ def plot_axes(out_dir: Path, traces: dict[str, AxisTrace], segments: list[dict],
         if len(tr.t_s) < 3 or not np.any(tr.setpoint_arcsec_s != 0) and not np.any(tr.u != 0):
             continue
         fig, ax = plt.subplots(figsize=(11, 4.8))
-        tm, v = window_rates(tr.t_s, tr.counts * ARCSEC_PER_COUNT, window_ms / 1000.0, 0.010)
+        tm, v = window_rates(tr.t_s, tr.counts * tr.arcsec_per_count, window_ms / 1000.0, 0.010)
         ax.plot(tm, v, lw=0.8, color="C0", label=f"velocity (QEI, {window_ms} ms window)")
         ax.plot(tr.t_s, tr.setpoint_arcsec_s, lw=1.0, color="k", label="setpoint")
         ax.set_xlabel("time (s)")
@@ -316,7 +315,7 @@ def plot_axes(out_dir: Path, traces: dict[str, AxisTrace], segments: list[dict],
             if sel.sum() < 3:
                 continue
             fig, ax = plt.subplots(figsize=(11, 4.2))
-            tm, v = window_rates(tr.t_s[sel], tr.counts[sel] * ARCSEC_PER_COUNT, window_ms / 1000.0, 0.010)
+            tm, v = window_rates(tr.t_s[sel], tr.counts[sel] * tr.arcsec_per_count, window_ms / 1000.0, 0.010)
             ax.plot(tm, v, lw=0.8, color="C0", label="velocity (QEI)")
             ax.axhline(s["setpoint_arcsec_s"], color="k", lw=1.0, label="setpoint")
             ax.axvline(s["t0_s"] + s["settle_s"], color="0.6", lw=0.8, ls=":", label="end of settling")

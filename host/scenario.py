@@ -27,7 +27,10 @@ from typing import Any, Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from boards.registry import BOARD_NAMES
 from bus.errors import ConfigurationError
+from host.faults import FAULT_KINDS, FAULT_PARAMS, check_fault
+from plant.params import ParameterError, PlantParameters, load_parameters
 
 __all__ = [
     "ScenarioError",
@@ -36,6 +39,7 @@ __all__ = [
     "load_scenario",
     "parse_scenario",
     "MODES",
+    "resolve_parameters",
 ]
 
 #: Axis motion modes a segment may command (paper §3.3: slew, set, guide, fine, track; plus an
@@ -169,20 +173,19 @@ class Segment(_Strict):
 
 
 class Fault(_Strict):
-    """A fault injected at a simulated time (fault-handling tests)."""
+    """A fault injected at a simulated time (fault-handling tests). Kinds, the boards each
+    applies to and its parameters: the fault table :data:`host.faults.FAULTS`. A new parameter
+    is one field here and one name in :data:`host.faults.FAULT_PARAMS`."""
 
     at_s: float = Field(ge=0)
-    kind: Literal["endat_bit_flip", "malformed_frame", "board_reset", "remove_board", "focus_stall"]
-    board: Literal["ra-axis", "dec-axis", "ra-reader", "dec-reader", "focus"]
+    kind: Literal[FAULT_KINDS]  # the fault table of host/faults.py
+    board: Literal[BOARD_NAMES]  # the board registry (boards/registry.py)
     bit: int | None = Field(None, ge=0, le=63)
     halfsteps: int | None = Field(None, ge=1, le=100_000, description="focus_stall: half-steps lost")
 
     @model_validator(mode="after")
     def _check(self) -> "Fault":
-        if self.kind == "focus_stall" and (self.board != "focus" or self.halfsteps is None):
-            raise ValueError("focus_stall needs board: focus and halfsteps (>= 1)")
-        if self.kind != "focus_stall" and self.halfsteps is not None:
-            raise ValueError("halfsteps is only for kind focus_stall")
+        check_fault(self.kind, self.board, {name: getattr(self, name) for name in FAULT_PARAMS})
         return self
 
 
@@ -292,8 +295,6 @@ def parse_scenario(text: str, path: str = "<string>") -> Scenario:
             problem = f"{problem} (got {err['input']!r})"
         raise ScenarioError(path, line, _dotted(loc), problem) from None
     # The plant parameter file and every override must resolve too, before anything runs.
-    from host.network import resolve_parameters
-
     try:
         resolve_parameters(scenario)
     except ScenarioError as exc:
@@ -325,6 +326,38 @@ def _valid_keys_hint(loc: tuple) -> str:
         model = cand[0]
     keys = sorted(k for k in model.model_fields if k != "source_path")
     return "valid keys: " + ", ".join(keys)
+
+
+def resolve_parameters(scenario: Scenario) -> PlantParameters:
+    """Load the scenario's plant parameter file with its overrides (``plant.preload``,
+    ``plant.perfect``, ``plant.overrides``): the parameters the plant will run.
+
+    Raises
+    ------
+    ScenarioError
+        The parameter file is missing or an override names an unknown parameter (the message
+        names the scenario file and the ``plant.overrides`` key).
+    """
+    pc = scenario.plant
+    path = None
+    if pc.parameter_file:
+        path = Path(pc.parameter_file)
+        if not path.is_absolute():
+            path = Path(scenario.source_path).parent / path
+        if not path.exists():
+            raise ScenarioError(scenario.source_path, None, "plant.parameter_file", f"file not found: {path}")
+    overrides: dict = {}
+    if pc.preload is not None:
+        overrides["axes.ra.friction.preload"] = pc.preload
+        overrides["axes.dec.friction.preload"] = pc.preload
+    if pc.perfect is not None:
+        overrides["perfect"] = pc.perfect
+    overrides.update(pc.overrides)
+    try:
+        return load_parameters(path, overrides or None)
+    except ParameterError as exc:
+        key = next((k for k in pc.overrides if k in str(exc)), None)
+        raise ScenarioError(scenario.source_path, None, f"plant.overrides.{key}" if key else "plant", str(exc)) from None
 
 
 def load_scenario(path: str | Path) -> Scenario:

@@ -18,22 +18,20 @@ from __future__ import annotations
 
 import json
 import math
-import time
 from pathlib import Path
 from typing import Callable
 
 import can
 
+from boards.registry import BOARDS
 from bus import protocol as P
 from bus.errors import BusError, SimulationError
-from bus.scheduler import PRIO_HOST
-from host.client import NODE_NAMES
-from host.logs import CANDUMP_LOG, CandumpWriter, HostLogs
+from bus.units import ARCSEC_PER_RAD
 from host.monitor import BusMonitor
+from host.network import build_network
 from host.report import _json_default
-from host.rs232 import TELEMETRY_LOG
-from host.runner import CHUNK_US, SAMPLE_PERIOD_US, SAMPLE_PHASE_US, schedule_faults, sensor_row
 from host.scenario import BusConfig, Scenario
+from host.session import Session
 
 __all__ = ["ServeSession", "SocketCanUnavailable", "DEFAULT_SCENARIO", "DEFAULT_CHANNEL", "serve_scenario",
            "served_interface"]
@@ -48,7 +46,6 @@ DEFAULT_CHANNEL = "vcan0"
 FLUSH_PERIOD_US = 1_000_000
 #: Errors listed in ``report.json`` (all of them are in ``errors.log``).
 REPORT_MAX_ERRORS = 200
-ARCSEC_PER_RAD = 648_000.0 / math.pi
 
 
 class SocketCanUnavailable(BusError):
@@ -68,26 +65,18 @@ def serve_scenario(scenario: Scenario, channel: str | None = None) -> Scenario:
 
 def served_interface() -> list[dict]:
     """What the emulated boards offer on the bus, per board in node order: node id, the COB-IDs
-    it sends and the COB-IDs a host sends to it (from :data:`bus.protocol.COB_TABLE`).
+    it sends and the COB-IDs a host sends to it (from the board registry, :mod:`boards.registry`).
 
     Returns
     -------
     list of dict
         ``{"board", "node", "sends": [(cob_id, name), ...], "listens": [(cob_id, name), ...]}``.
     """
-    out = []
-    bcast = P.host_broadcast_cob_id()
-    for node in P.BOARD_NODES:
-        sends, listens = [], [(bcast, P.frame_name(bcast))]
-        for cob, (name, spec, n) in sorted(P.COB_TABLE.items()):
-            if n != node:
-                continue
-            (listens if spec.sender == "host" else sends).append((cob, name))
-        out.append({"board": NODE_NAMES[node], "node": int(node), "sends": sends, "listens": listens})
-    return out
+    return [{"board": name, "node": int(inst.node_id), "sends": spec.sends(inst.node_id),
+             "listens": spec.accepts(inst.node_id)} for name, (spec, inst) in BOARDS.items()]
 
 
-class ServeSession:
+class ServeSession(Session):
     """The boards and plant of ``scenario`` with a passive monitor in the host's place.
 
     Parameters
@@ -115,64 +104,44 @@ class ServeSession:
     """
 
     def __init__(self, scenario: Scenario, out_dir: Path | str):
-        from host.network import build_network
-
-        self.scenario = scenario
-        self.out_dir = Path(out_dir)
         iface, channel = scenario.bus.interface, scenario.bus.channel
-        try:
-            self.tel = build_network(scenario, host_cls=BusMonitor)
-        except (OSError, can.CanError) as exc:
-            if iface != "socketcan":
-                raise
-            raise SocketCanUnavailable(
-                f"cannot open SocketCAN channel {channel!r} ({exc}); serving needs a Linux kernel with "
-                f"AF_CAN and the interface up (e.g. 'sudo ip link add dev vcan0 type vcan && sudo ip link "
-                f"set vcan0 up'); see docs/socketcan.md") from None
+
+        def build(sc: Scenario, host_cls: type):
+            try:
+                return build_network(sc, host_cls=host_cls)
+            except (OSError, can.CanError) as exc:
+                if iface != "socketcan":
+                    raise
+                raise SocketCanUnavailable(
+                    f"cannot open SocketCAN channel {channel!r} ({exc}); serving needs a Linux kernel with "
+                    f"AF_CAN and the interface up (e.g. 'sudo ip link add dev vcan0 type vcan && sudo ip link "
+                    f"set vcan0 up'); see docs/socketcan.md") from None
+
+        super().__init__(scenario, out_dir, host_cls=BusMonitor, logs_first=False, build=build,
+                         candump_channel="can0" if iface == "sim" else channel,
+                         header=(f"serve {scenario.name}; seed {scenario.seed}; bus {iface} {channel}; commands are "
+                                 f"those seen from the external host"))
         self.monitor: BusMonitor = self.tel.client
-        self.scheduler = self.tel.scheduler
-        self.pacer = None
         self.stopped_by: str | None = None
         self.report: dict | None = None
-        self._errors: list[str] = []
-        self._wall0 = time.perf_counter()
-        self.candump = None
-        try:
-            self.logs = HostLogs(self.out_dir, header=(
-                f"serve {scenario.name}; seed {scenario.seed}; bus {iface} {channel}; commands are those "
-                f"seen from the external host"))
-            chan = "can0" if iface == "sim" else channel
-            self.candump = CandumpWriter(self.out_dir / CANDUMP_LOG, chan)
-        except BaseException:
-            self._close_files()
-            self.tel.close()
-            raise
-        self.monitor.logs = self.logs
-        if self.tel.network is not None:   # sim: every frame on the wire, the monitor's own too
-            self.tel.network.add_tap(self.candump.write)
-        else:                              # socketcan/virtual: every frame the monitor receives
-            self.monitor.on_frame = self.candump.write
-        if self.tel.hub is not None:
-            self.tel.hub.open_log(self.out_dir / TELEMETRY_LOG)
-        schedule_faults(self.tel, scenario)
-        self._sensor_every = max(1, round(1e6 / scenario.log.rate_hz / SAMPLE_PERIOD_US))
-        self._samples = 0
+        self.schedule_faults()
         self._truth = {axis: {"t0_us": None, "angle0_rad": 0.0, "peak_abs_rate_rad_s": 0.0}
                        for axis in self.tel.plants}
-        self.scheduler.call_every(SAMPLE_PERIOD_US, self._sample, start_us=self.scheduler.now_us + SAMPLE_PHASE_US,
-                                  priority=PRIO_HOST, owner="host-monitor")
+        self.start_sampling("host-monitor", self._track_truth)
         self._next_flush_us = self.scheduler.now_us + FLUSH_PERIOD_US
 
+    @property
+    def pacer(self):
+        """The real-time pacer on SocketCAN once :meth:`run` has started (else ``None``)."""
+        return self.clock if self.paced else None
+
     # -- sampling (simulated time) -------------------------------------------------------------
-    def _sample(self, now_us: int) -> None:
+    def _track_truth(self, now_us: int) -> None:
         for axis, plant in self.tel.plants.items():
             tr = self._truth[axis]
             if tr["t0_us"] is None:
                 tr["t0_us"], tr["angle0_rad"] = now_us, plant.axis_angle_rad
             tr["peak_abs_rate_rad_s"] = max(tr["peak_abs_rate_rad_s"], abs(plant.axis_rate_rad_s))
-        self._samples += 1
-        if self._samples % self._sensor_every == 0:
-            self.logs.sensor(now_us, sensor_row(self.monitor, self.monitor.setpoints))
 
     # -- running -------------------------------------------------------------------------------
     def run(self, duration_s: float | None = None, should_stop: Callable[[], bool] | None = None) -> str:
@@ -198,39 +167,21 @@ class ServeSession:
             raise ValueError("run() needs duration_s or should_stop")
         sched = self.scheduler
         end_us = None if duration_s is None else sched.now_us + int(round(duration_s * 1e6))
-        if self.scenario.bus.interface == "socketcan" and self.pacer is None:
-            from host.realtime import RealtimePacer
 
-            self.pacer = RealtimePacer(start_sim_us=sched.now_us)
-        step_us = self.pacer.step_us if self.pacer is not None else CHUNK_US
+        def flush() -> None:
+            if sched.now_us >= self._next_flush_us:
+                self.candump.flush()
+                self._next_flush_us = sched.now_us + FLUSH_PERIOD_US
+
         try:
-            while True:
-                if should_stop is not None and should_stop():
-                    self.stopped_by = "stop requested"
-                    break
-                if end_us is not None and sched.now_us >= end_us:
-                    self.stopped_by = "duration"
-                    break
-                nxt = sched.now_us + step_us if end_us is None else min(end_us, sched.now_us + step_us)
-                if self.pacer is not None:
-                    self.pacer.wait_for(nxt)
-                sched.run_until(nxt)
-                if sched.now_us >= self._next_flush_us:
-                    self.candump.flush()
-                    self._next_flush_us = sched.now_us + FLUSH_PERIOD_US
-        except SimulationError as exc:
-            self._errors.append(str(exc))
-            self.logs.error(sched.now_us, exc.owner or "simulation", "exception", str(exc).replace("\n", " "))
+            reached = self.advance(end_us, should_stop, flush)
+        except SimulationError:
             self.stopped_by = "simulation error"
             raise
+        self.stopped_by = "duration" if reached else "stop requested"
         return self.stopped_by
 
     # -- closing and the report ----------------------------------------------------------------
-    def _close_files(self) -> None:
-        for f in (getattr(self, "logs", None), self.candump):
-            if f is not None:
-                f.close()
-
     def close(self) -> dict:
         """Write ``report.json``/``report.md``, flush and close every log, shut the buses down
         (idempotent; the logs are closed even if the report fails).
@@ -249,8 +200,7 @@ class ServeSession:
             (self.out_dir / "report.md").write_text(_markdown(report), encoding="utf-8")
             self.report = report
         finally:
-            self._close_files()
-            self.tel.close()
+            Session.close(self)
         return report
 
     def __enter__(self) -> "ServeSession":
@@ -261,9 +211,7 @@ class ServeSession:
 
     def files(self) -> list[Path]:
         """Files written into ``out_dir``."""
-        names = [*self.logs.paths.values(), self.candump.path, self.out_dir / "report.json", self.out_dir / "report.md"]
-        if self.tel.hub is not None and self.tel.hub.log_path is not None:
-            names.append(self.tel.hub.log_path)
+        names = [*Session.files(self), self.out_dir / "report.json", self.out_dir / "report.md"]
         return [p for p in names if p.exists()]
 
     def _report(self) -> dict:
@@ -286,7 +234,7 @@ class ServeSession:
         plant = tel.plant_summary()
         for axis in truth:
             plant[axis]["truth"] = truth[axis]
-        errors = self._errors + mon.error_lines()
+        errors = self.errors + mon.error_lines()
         return {
             "command": "serve",
             "scenario": self.scenario.name,
@@ -294,7 +242,7 @@ class ServeSession:
             "seed": self.scenario.seed,
             "bus": self.scenario.bus.model_dump(),
             "simulated_s": sched.now_us / 1e6,
-            "wall_s": round(time.perf_counter() - self._wall0, 3),
+            "wall_s": self.wall_s(),
             "stopped_by": self.stopped_by,
             "frames_seen": {P.frame_name(k): v for k, v in sorted(mon.frames_by_id.items())},
             "frames_seen_total": mon.frames_received,
@@ -306,7 +254,7 @@ class ServeSession:
             "controller": tel.controller_summary(),
             "plant": plant,
             "rs232": tel.rs232_summary(),
-            "realtime": self.pacer.stats() if self.pacer is not None else None,
+            "realtime": self.clock_stats(),
             "errors_total": len(errors),
             "errors": errors[:REPORT_MAX_ERRORS],
         }

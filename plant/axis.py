@@ -42,13 +42,13 @@ from __future__ import annotations
 
 import math
 
+from bus.units import ARCSEC_PER_RAD  # the one module of bus that plant imports (a constants leaf)
 from plant import kernel
 from plant.friction import LuGre, lugre_from_parameters
 from plant.params import AxisParameters
 
 __all__ = ["AxisPlant", "ARCSEC_PER_RAD"]
 
-ARCSEC_PER_RAD = 180.0 / math.pi * 3600.0
 _TWO_PI = 2.0 * math.pi
 
 

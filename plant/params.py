@@ -23,6 +23,8 @@ from typing import Any, Mapping
 
 import yaml
 
+from bus.units import ARCSEC_PER_REV
+
 __all__ = [
     "ParameterError",
     "DEFAULT_PATH",
@@ -212,7 +214,7 @@ class EncoderParameters:
     @property
     def arcsec_per_count(self) -> float:
         """Incremental resolution at the axis [arcsec/count] (0.01148)."""
-        return 1_296_000.0 / self.counts_per_axis_rev
+        return ARCSEC_PER_REV / self.counts_per_axis_rev
 
 
 @dataclass(frozen=True)

@@ -4,7 +4,7 @@ from pathlib import Path
 
 import pytest
 
-from host.network import resolve_parameters
+from host.scenario import resolve_parameters
 from host.scenario import ScenarioError, load_scenario, parse_scenario
 
 SCENARIOS = sorted((Path(__file__).resolve().parent.parent / "scenarios").glob("*.yaml"))

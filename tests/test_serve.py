@@ -15,12 +15,15 @@ from bus import protocol as P
 from host.cli import main
 from host.monitor import PassiveHostError
 from host.network import build_network
-from host.report import ARCSEC_PER_COUNT
+
 from host.scenario import load_scenario
 from host.serve import DEFAULT_SCENARIO, ServeSession, serve_scenario, served_interface
 
 SIDEREAL_ARCSEC_S = 15.0
 
+
+#: QEI resolution at the axis from the documents (4.608e6 counts/rev × 24.5 roller, paper §2.2/§3.2).
+ARCSEC_PER_COUNT = 1_296_000.0 / (4_608_000 * 24.5)
 
 def _msg(cob_id: int, data: bytes) -> can.Message:
     return can.Message(arbitration_id=cob_id, data=data, is_extended_id=False)

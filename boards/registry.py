@@ -1,0 +1,150 @@
+"""The board registry: the one table of which boards the telescope network has.
+
+One :class:`BoardSpec` per board kind: its firmware class, device type, the plant ports its
+firmware needs, and its instances (scenario name, node id, axis). Everything else that lists
+boards is derived from this table: the scenario schema's board names, the host's health check
+and node names, the report's board rows, :func:`host.network.build_network`, the frames each
+board sends and accepts (from :data:`bus.protocol.COB_TABLE` by node) and the RS232 telemetry
+ports.
+
+The wire-level facts stay in the protocol layer below (``bus`` never imports ``boards``): the
+node id enum, the device type byte of each node and the frame layouts (``bus/protocol.py`` and
+``bus/schmidt.dbc``). A test checks that this table and the protocol agree.
+
+Adding a board kind = one firmware file + one entry in :data:`REGISTRY` (+ its node id and
+frames in ``bus/protocol.py`` and the DBC; + a port factory in ``host/network.py`` if it needs a
+plant port no other board has). See docs/architecture.md.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from boards.axis_controller import AxisController
+from boards.firmware_base import Board
+from boards.focus_controller import FocusController
+from boards.position_reader import PositionReader
+from bus import protocol as P
+
+__all__ = ["BoardInstance", "BoardSpec", "REGISTRY", "BOARDS", "BOARD_NAMES", "NODE_NAMES",
+           "board", "board_of_node", "nodes_of_kind"]
+
+
+@dataclass(frozen=True)
+class BoardInstance:
+    """One board on the bus.
+
+    Attributes
+    ----------
+    name : str
+        Scenario name (``faults[].board``), log and report name, scheduler owner.
+    node_id : int
+        CAN node id (``bus.protocol.NodeId``).
+    axis : str or None
+        ``"ra"``/``"dec"`` for per-axis boards (selects the plant an axis board's ports reach).
+    """
+
+    name: str
+    node_id: int
+    axis: str | None = None
+
+
+@dataclass(frozen=True)
+class BoardSpec:
+    """One board kind.
+
+    Attributes
+    ----------
+    kind : str
+        Registry key (``"axis_controller"``).
+    firmware : type
+        The firmware class (a :class:`boards.firmware_base.Board`); constructed as
+        ``firmware(scheduler, bus, node_id, name=..., serial_port=..., **ports, **settings)``.
+    device_type : bus.protocol.DeviceType
+        Byte 0 of every frame it sends (must match ``bus.protocol.DEVICE_TYPE_OF_NODE``).
+    ports : tuple of str
+        Keyword arguments of ``firmware`` that are plant ports; ``host/network.py`` builds each
+        from its port table (``PORTS``) for the instance's axis.
+    instances : tuple of BoardInstance
+        The boards of this kind, in node order.
+    description : str
+        The board (paper section).
+    """
+
+    kind: str
+    firmware: type
+    device_type: P.DeviceType
+    ports: tuple[str, ...]
+    instances: tuple[BoardInstance, ...]
+    description: str = ""
+
+    def sends(self, node_id: int) -> list[tuple[int, str]]:
+        """``(cob_id, frame name)`` of every frame the board with ``node_id`` sends."""
+        return [(cob, name) for cob, (name, spec, n) in sorted(P.COB_TABLE.items())
+                if n == node_id and spec.sender != "host"]
+
+    def accepts(self, node_id: int) -> list[tuple[int, str]]:
+        """``(cob_id, frame name)`` of every frame a host sends to the board with ``node_id``
+        (the broadcast included)."""
+        bcast = P.host_broadcast_cob_id()
+        return [(bcast, P.frame_name(bcast))] + [
+            (cob, name) for cob, (name, spec, n) in sorted(P.COB_TABLE.items())
+            if n == node_id and spec.sender == "host"]
+
+
+#: The board kinds of the ARIES Schmidt network (paper §3.3–§3.4; node ids docs/protocol.md).
+REGISTRY: tuple[BoardSpec, ...] = (
+    BoardSpec(
+        kind="axis_controller", firmware=AxisController, device_type=P.DeviceType.AXIS_CONTROLLER,
+        ports=("read_qei_counts", "on_duties", "shunt_a_v", "shunt_b_v"),
+        instances=(BoardInstance("ra-axis", P.NodeId.RA_AXIS, "ra"),
+                   BoardInstance("dec-axis", P.NodeId.DEC_AXIS, "dec")),
+        description="axis controller, dsPIC30F3011: QEI, 2 PWM, shunt ADC, PI at 5 ms (§3.3)"),
+    BoardSpec(
+        kind="position_reader", firmware=PositionReader, device_type=P.DeviceType.POSITION_READER,
+        ports=("read_position_word",),
+        instances=(BoardInstance("ra-reader", P.NodeId.RA_READER, "ra"),
+                   BoardInstance("dec-reader", P.NodeId.DEC_READER, "dec")),
+        description="EnDat absolute position reader, PIC18F4480 (§3.2, §3.4)"),
+    BoardSpec(
+        kind="focus_controller", firmware=FocusController, device_type=P.DeviceType.FOCUS_CONTROLLER,
+        ports=("on_step", "read_lvdt_v", "read_index", "on_power", "read_encoder_counts"),
+        instances=(BoardInstance("focus", P.NodeId.FOCUS, None),),
+        description="focus controller, PIC18F4431: stepper, LVDT, motor encoder (§3.3)"),
+)
+
+#: Every board by scenario name, in node order: name -> (spec, instance).
+BOARDS: dict[str, tuple[BoardSpec, BoardInstance]] = dict(sorted(
+    ((i.name, (s, i)) for s in REGISTRY for i in s.instances), key=lambda kv: int(kv[1][1].node_id)))
+#: Scenario board names in node order.
+BOARD_NAMES: tuple[str, ...] = tuple(BOARDS)
+#: Board name of each node id.
+NODE_NAMES: dict[int, str] = {int(i.node_id): name for name, (_, i) in BOARDS.items()}
+
+
+def board(name: str) -> tuple[BoardSpec, BoardInstance]:
+    """The spec and instance of board ``name``.
+
+    Raises
+    ------
+    KeyError
+        Unknown name (the message lists the valid names).
+    """
+    try:
+        return BOARDS[name]
+    except KeyError:
+        raise KeyError(f"unknown board {name!r}; valid: {', '.join(BOARD_NAMES)}") from None
+
+
+def board_of_node(node_id: int) -> str:
+    """Board name of ``node_id`` (``"node-<n>"`` for a node that is not a board)."""
+    return NODE_NAMES.get(int(node_id), f"node-{node_id}")
+
+
+def nodes_of_kind(kind: str) -> dict[str, int]:
+    """``{axis or name: node id}`` of the boards of ``kind`` (``{"ra": 1, "dec": 2}``)."""
+    spec = next(s for s in REGISTRY if s.kind == kind)
+    return {(i.axis or i.name): int(i.node_id) for i in spec.instances}
+
+
+assert all(issubclass(s.firmware, Board) for s in REGISTRY)
