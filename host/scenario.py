@@ -22,13 +22,14 @@ Example::
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from boards.registry import BOARD_NAMES
 from bus.errors import ConfigurationError
+from bus.units import check_counter_fraction
 from host.faults import FAULT_KINDS, FAULT_PARAMS, check_fault
 from plant.params import ParameterError, PlantParameters, load_parameters
 
@@ -101,7 +102,7 @@ class AxisControllerConfig(_Strict):
 
     kp: float | None = Field(None, ge=0, description="duty per (arcsec/s)")
     ki: float | None = Field(None, ge=0, description="duty per (arcsec/s) per tick")
-    counter_fraction: float | None = Field(None, ge=0.0, le=0.5)
+    counter_fraction: Annotated[float, AfterValidator(check_counter_fraction)] | None = None  # bus.units: [0, 1)
     u_max: float | None = Field(None, gt=0.0, le=1.0)
 
 

@@ -5,29 +5,37 @@ The file (``plant/parameters.yaml`` by default) is a tree whose leaves are
 (``{kind, **params}``, see :mod:`plant.effects`). Values are SI unless the key names another unit
 (``backlash_motor_deg``, ``halfstep_angle_deg``, ``max_substep_us``, ``incremental_error_arcsec``).
 
-Typed objects are frozen dataclasses whose field names are the YAML keys, so
-``params.axes["ra"].friction.sigma0_nm_rad`` reads ``axes.ra.friction.sigma0_nm_rad``. Derived
-quantities (``GearParameters.backlash_rad``, ``FrictionParameters.active``…) are properties.
+Typed objects are frozen (pydantic) dataclasses whose field names are the YAML keys, so
+``params.axes["ra"].friction.sigma0_nm_rad`` reads ``axes.ra.friction.sigma0_nm_rad``. They are
+the ONE schema of the file: each field is declared once with its type and bound, and
+:func:`parameters_from_tree` validates the whole tree against them (an error names the dotted path
+and what was expected, as :class:`ParameterError`, a :class:`bus.errors.ConfigurationError`).
+A new parameter = one field in its class + its leaf (value, unit, source) in parameters.yaml; a
+new section = one class + one field of the parent. Derived quantities
+(``GearParameters.backlash_rad``, ``FrictionParameters.active``…) are properties.
 :func:`dump_parameters` writes the typed values back into the file format, keeping units and
-sources, so ``dataclasses.replace`` edits survive a round trip.
+sources, so ``dataclasses.replace`` edits (validated again) survive a round trip.
 """
 
 from __future__ import annotations
 
 import copy
-import dataclasses
 import math
-from dataclasses import dataclass, field
+from dataclasses import field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Annotated, Any, Literal, Mapping
 
 import yaml
+from pydantic import AfterValidator, BeforeValidator, ConfigDict, Field, TypeAdapter, ValidationError
+from pydantic.dataclasses import dataclass
 
-from bus.units import ARCSEC_PER_REV
+from bus.errors import ConfigurationError
+from bus.units import ARCSEC_PER_REV, check_counter_fraction
 
 __all__ = [
     "ParameterError",
     "DEFAULT_PATH",
+    "SCHEMA",
     "MotorParameters",
     "GearParameters",
     "DriveParameters",
@@ -39,25 +47,87 @@ __all__ = [
     "PlantParameters",
     "load_parameters",
     "dump_parameters",
+    "parameters_from_tree",
 ]
 
 #: The parameter file shipped with the package.
 DEFAULT_PATH = Path(__file__).with_name("parameters.yaml")
-
-PRELOAD_SETS = ("low", "high")
-PRELOAD_LAWS = ("proportional",)
-DRIVE_MODELS = ("twin_train", "rigid")
+#: The file format version (the ``schema`` leaf).
+SCHEMA = "schmidt-fil/plant-parameters/1"
 AXIS_NAMES = ("ra", "dec")
 
 
-class ParameterError(ValueError):
-    """A parameter file or override is invalid (names the path and, where useful, the valid keys)."""
+class ParameterError(ConfigurationError, ValueError):
+    """A parameter file or override is invalid (names the path and, where useful, the valid keys).
+
+    In the project's error tree (:class:`bus.errors.ConfigurationError`); also a ``ValueError``.
+    """
+
+
+# --------------------------------------------------------------------------- field types
+# Every field of the file is declared once, in the typed classes below, with its constraint;
+# the loader validates the whole tree against them (pydantic) and names the dotted path of the
+# first error. A new parameter is one field in one class (+ its leaf in parameters.yaml).
+
+
+def _number(v: Any) -> float:
+    if isinstance(v, str):  # YAML 1.1 reads "3e6" as a string; CLI overrides arrive as text
+        try:
+            v = float(v)
+        except ValueError:
+            pass
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ValueError(f"expected a number, got {v!r}")
+    if not math.isfinite(v):
+        raise ValueError(f"must be finite, got {v!r}")
+    return float(v)
+
+
+def _integer(v: Any) -> int:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or v != int(v):
+        raise ValueError(f"expected an integer, got {v!r}")
+    return int(v)
+
+
+def _boolean(v: Any) -> bool:
+    if not isinstance(v, bool):
+        raise ValueError(f"expected true/false, got {v!r}")
+    return v
+
+
+def _effect_specs(specs: Any) -> tuple:
+    if specs is None:
+        return ()
+    if not isinstance(specs, (list, tuple)):
+        raise ValueError("expected a list of {kind, params...}")
+    from plant.effects import build_effect
+
+    out = []
+    for i, spec in enumerate(specs):
+        if not isinstance(spec, dict) or "kind" not in spec:
+            raise ValueError(f"[{i}]: expected a mapping with a 'kind' key")
+        try:  # validate now so a bad scenario fails at load time
+            build_effect(dict(spec))
+        except ValueError as exc:
+            raise ValueError(f"[{i}]: {exc}") from None
+        out.append(dict(spec))
+    return tuple(out)
+
+
+Number = Annotated[float, BeforeValidator(_number)]
+Positive = Annotated[float, BeforeValidator(_number), Field(gt=0)]
+NonNegative = Annotated[float, BeforeValidator(_number), Field(ge=0)]
+PositiveInt = Annotated[int, BeforeValidator(_integer), Field(gt=0)]
+Switch = Annotated[bool, BeforeValidator(_boolean)]
+CounterFraction = Annotated[float, BeforeValidator(_number), AfterValidator(check_counter_fraction)]
+EffectSpecs = Annotated[tuple, BeforeValidator(_effect_specs)]
+_CFG = ConfigDict(extra="forbid")
 
 
 # --------------------------------------------------------------------------- typed objects
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, config=_CFG)
 class MotorParameters:
     """One brushed DC torque motor (Kollmorgen QT-3124) with its low-side MOSFET drive.
 
@@ -81,17 +151,17 @@ class MotorParameters:
         Current shunt, 0.1 Ω (paper §3.3).
     """
 
-    resistance_ohm: float
-    inductance_h: float
-    torque_constant_nm_a: float
-    rotor_inertia_kg_m2: float
-    viscous_nm_s_rad: float
-    rated_current_a: float
-    supply_v: float
-    shunt_ohm: float
+    resistance_ohm: Positive
+    inductance_h: Positive
+    torque_constant_nm_a: Positive
+    rotor_inertia_kg_m2: Positive
+    viscous_nm_s_rad: NonNegative
+    rated_current_a: Positive
+    supply_v: Positive
+    shunt_ohm: Positive
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, config=_CFG)
 class GearParameters:
     """One of the two identical gear trains of an axis (paper §2.2, Table 1).
 
@@ -107,10 +177,10 @@ class GearParameters:
         Mesh damping as a fraction of critical for the lock-rotor mode (assumed).
     """
 
-    ratio: float
-    backlash_motor_deg: float
-    stiffness_nm_rad: float
-    damping_ratio: float
+    ratio: Positive
+    backlash_motor_deg: NonNegative
+    stiffness_nm_rad: Positive
+    damping_ratio: NonNegative
 
     @property
     def backlash_rad(self) -> float:
@@ -123,7 +193,7 @@ class GearParameters:
         return 0.5 * self.stiffness_nm_rad
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, config=_CFG)
 class DriveParameters:
     """The twin-motor preload law carried for the firmware (paper §3.3).
 
@@ -135,21 +205,21 @@ class DriveParameters:
         p, 0.10–0.25 (paper §3.3; Table 1 "Counter torque (25%)").
     """
 
-    preload_law: str
-    counter_fraction: float
+    preload_law: Literal["proportional"]
+    counter_fraction: CounterFraction
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, config=_CFG)
 class FrictionSet:
     """One Table 2 LuGre set (paper §4): σ2 [N·m·s/rad], Tc, Ts [N·m], ωs [rad/s]."""
 
-    sigma2_nm_s_rad: float
-    tc_nm: float
-    ts_nm: float
-    omega_s_rad_s: float
+    sigma2_nm_s_rad: NonNegative
+    tc_nm: NonNegative
+    ts_nm: NonNegative
+    omega_s_rad_s: Positive
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, config=_CFG)
 class FrictionParameters:
     """LuGre friction on the axis (paper eqs. 3–5, Table 2).
 
@@ -168,16 +238,16 @@ class FrictionParameters:
         uses the active set's symmetric value.
     """
 
-    preload: str
-    sigma0_nm_rad: float
-    sigma1_nm_s_rad: float
-    delta: float
+    preload: Literal["low", "high"]
+    sigma0_nm_rad: Positive
+    sigma1_nm_s_rad: NonNegative
+    delta: Positive
     low: FrictionSet
     high: FrictionSet
-    tc_pos_nm: float | None = None
-    tc_neg_nm: float | None = None
-    sigma2_pos_nm_s_rad: float | None = None
-    sigma2_neg_nm_s_rad: float | None = None
+    tc_pos_nm: NonNegative | None = None
+    tc_neg_nm: NonNegative | None = None
+    sigma2_pos_nm_s_rad: NonNegative | None = None
+    sigma2_neg_nm_s_rad: NonNegative | None = None
 
     @property
     def active(self) -> FrictionSet:
@@ -185,7 +255,7 @@ class FrictionParameters:
         return self.low if self.preload == "low" else self.high
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, config=_CFG)
 class EncoderParameters:
     """Axis encoders (paper §2.2, §3.2).
 
@@ -201,10 +271,10 @@ class EncoderParameters:
         Absolute encoder word width, 29.
     """
 
-    incremental_counts_per_rev: int
-    roller_ratio: float
-    incremental_error_arcsec: float
-    absolute_bits: int
+    incremental_counts_per_rev: PositiveInt
+    roller_ratio: Positive
+    incremental_error_arcsec: NonNegative
+    absolute_bits: PositiveInt
 
     @property
     def counts_per_axis_rev(self) -> float:
@@ -217,7 +287,7 @@ class EncoderParameters:
         return ARCSEC_PER_REV / self.counts_per_axis_rev
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, config=_CFG)
 class AxisParameters:
     """Everything one :class:`plant.axis.AxisPlant` needs.
 
@@ -239,17 +309,17 @@ class AxisParameters:
         Copy of the file's top-level ``perfect`` switch.
     """
 
-    name: str
-    inertia_kg_m2: float
-    max_substep_us: int
-    drive_model: str
+    name: Literal["ra", "dec"]
+    inertia_kg_m2: Positive
+    max_substep_us: PositiveInt
+    drive_model: Literal["twin_train", "rigid"]
     motor: MotorParameters
     gear: GearParameters
     drive: DriveParameters
     friction: FrictionParameters
     encoders: EncoderParameters
-    effects: tuple = ()
-    perfect: bool = False
+    effects: EffectSpecs
+    perfect: Switch = False
 
     @property
     def reflected_motor_inertia_kg_m2(self) -> float:
@@ -257,7 +327,7 @@ class AxisParameters:
         return 2.0 * self.motor.rotor_inertia_kg_m2 * self.gear.ratio ** 2
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, config=_CFG)
 class FocusParameters:
     """Focus mechanism (paper §3.2, §3.3); see :class:`plant.focus.FocusPlant`.
 
@@ -281,15 +351,15 @@ class FocusParameters:
         Position of the index pulse nearest 0 [m]; further ones every motor revolution.
     """
 
-    screw_lead_m: float
-    belt_ratio: float
-    halfstep_angle_deg: float
-    travel_m: float
-    lvdt_center_v: float
-    lvdt_span_v: float
-    adc_bits: int
-    motor_encoder_counts_per_rev: int
-    index_offset_m: float
+    screw_lead_m: Positive
+    belt_ratio: Positive
+    halfstep_angle_deg: Positive
+    travel_m: Positive
+    lvdt_center_v: Number
+    lvdt_span_v: Positive
+    adc_bits: PositiveInt
+    motor_encoder_counts_per_rev: PositiveInt
+    index_offset_m: Number
 
     @property
     def halfsteps_per_motor_rev(self) -> float:
@@ -307,7 +377,13 @@ class FocusParameters:
         return self.metres_per_motor_rev / self.halfsteps_per_motor_rev
 
 
-@dataclass(frozen=True)
+def _check_axes(axes: dict) -> dict:
+    if tuple(sorted(axes)) != tuple(sorted(AXIS_NAMES)):
+        raise ValueError(f"expected exactly the axes {list(AXIS_NAMES)}, got {sorted(axes)}")
+    return axes
+
+
+@dataclass(frozen=True, config=_CFG)
 class PlantParameters:
     """The whole parameter file, typed.
 
@@ -322,8 +398,8 @@ class PlantParameters:
         The raw file tree (with overrides applied); units and sources for :func:`dump_parameters`.
     """
 
-    perfect: bool
-    axes: dict
+    perfect: Switch
+    axes: Annotated[dict[str, AxisParameters], AfterValidator(_check_axes)]
     focus: FocusParameters
     tree: dict = field(repr=False, compare=False, default_factory=dict)
 
@@ -378,238 +454,83 @@ def _set_path(tree: dict, path: str, value: Any) -> None:
             node = node[part]
 
 
-class _Reader:
-    """Reads a section's leaves, checking that exactly the expected keys are present."""
-
-    def __init__(self, node: Any, path: str) -> None:
-        if not isinstance(node, dict) or _is_leaf(node):
-            raise ParameterError(f"{path}: expected a section (mapping of keys)")
-        self.node = node
-        self.path = path
-        self.used: set[str] = set()
-
-    def _leaf(self, key: str) -> Any:
-        if key not in self.node:
-            raise ParameterError(f"{self.path}.{key}: missing; present keys: {_keys(self.node)}")
-        self.used.add(key)
-        leaf = self.node[key]
-        if not _is_leaf(leaf):
-            raise ParameterError(f"{self.path}.{key}: expected a leaf {{value, unit, source}}")
-        return leaf["value"]
-
-    def float(self, key: str, *, positive: bool = False, nonneg: bool = False, optional: bool = False):
-        v = self._leaf(key)
-        if v is None and optional:
-            return None
-        if isinstance(v, str):  # YAML 1.1 reads "3e6" as a string; CLI overrides arrive as text
-            try:
-                v = float(v)
-            except ValueError:
-                pass
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise ParameterError(f"{self.path}.{key}: expected a number, got {v!r}")
-        v = float(v)
-        if not math.isfinite(v):
-            raise ParameterError(f"{self.path}.{key}: must be finite, got {v!r}")
-        if positive and not v > 0.0:
-            raise ParameterError(f"{self.path}.{key}: must be > 0, got {v!r}")
-        if nonneg and v < 0.0:
-            raise ParameterError(f"{self.path}.{key}: must be >= 0, got {v!r}")
-        return v
-
-    def int(self, key: str, *, positive: bool = True) -> int:
-        v = self._leaf(key)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or v != int(v):
-            raise ParameterError(f"{self.path}.{key}: expected an integer, got {v!r}")
-        if positive and int(v) <= 0:
-            raise ParameterError(f"{self.path}.{key}: must be > 0, got {v!r}")
-        return int(v)
-
-    def choice(self, key: str, valid: tuple[str, ...]) -> str:
-        v = self._leaf(key)
-        if v not in valid:
-            raise ParameterError(f"{self.path}.{key}: {v!r} is not one of {list(valid)}")
-        return str(v)
-
-    def bool(self, key: str) -> bool:
-        v = self._leaf(key)
-        if not isinstance(v, bool):
-            raise ParameterError(f"{self.path}.{key}: expected true/false, got {v!r}")
-        return v
-
-    def section(self, key: str) -> "_Reader":
-        if key not in self.node:
-            raise ParameterError(f"{self.path}.{key}: missing section; present keys: {_keys(self.node)}")
-        self.used.add(key)
-        return _Reader(self.node[key], f"{self.path}.{key}")
-
-    def done(self) -> None:
-        extra = sorted(set(self.node) - self.used)
-        if extra:
-            raise ParameterError(
-                f"{self.path}: unknown key(s) {extra}; valid keys: {sorted(self.used)}"
-            )
+def _values(node: Any, path: str) -> Any:
+    """The file tree with every ``{value, unit, source}`` leaf replaced by its value (effect
+    lists kept as they are)."""
+    if _is_leaf(node):
+        return node["value"]
+    if isinstance(node, dict):
+        return {k: _values(v, f"{path}.{k}" if path else k) if k != "effects" else v for k, v in node.items()}
+    raise ParameterError(f"{path or '<root>'}: expected a leaf {{value, unit, source}} or a section, got {node!r}")
 
 
-def _motor(r: _Reader) -> MotorParameters:
-    m = MotorParameters(
-        resistance_ohm=r.float("resistance_ohm", positive=True),
-        inductance_h=r.float("inductance_h", positive=True),
-        torque_constant_nm_a=r.float("torque_constant_nm_a", positive=True),
-        rotor_inertia_kg_m2=r.float("rotor_inertia_kg_m2", positive=True),
-        viscous_nm_s_rad=r.float("viscous_nm_s_rad", nonneg=True),
-        rated_current_a=r.float("rated_current_a", positive=True),
-        supply_v=r.float("supply_v", positive=True),
-        shunt_ohm=r.float("shunt_ohm", positive=True),
-    )
-    r.done()
-    return m
+def _dotted(loc: tuple) -> str:
+    return ".".join(str(p) for p in loc if not (isinstance(p, str) and p.endswith("]")))
 
 
-def _gear(r: _Reader) -> GearParameters:
-    g = GearParameters(
-        ratio=r.float("ratio", positive=True),
-        backlash_motor_deg=r.float("backlash_motor_deg", nonneg=True),
-        stiffness_nm_rad=r.float("stiffness_nm_rad", positive=True),
-        damping_ratio=r.float("damping_ratio", nonneg=True),
-    )
-    r.done()
-    return g
+def _first_error(exc: ValidationError, values: dict) -> str:
+    """One line for the first error: the dotted path and what was expected."""
+    errs = sorted(exc.errors(), key=lambda e: e["type"] != "unexpected_keyword_argument")
+    e = errs[0]
+    loc = tuple(str(p) for p in e["loc"])
+    path = ".".join(loc) or "<root>"
+    if e["type"] in ("unexpected_keyword_argument", "extra_forbidden"):
+        return f"{path}: unknown key; valid keys: {_valid_keys(loc[:-1])}"
+    if e["type"] in ("missing", "missing_argument"):
+        parent = _node_at(values, loc[:-1])
+        return f"{path}: missing; present keys: {_keys(parent)}"
+    msg = e["msg"].removeprefix("Value error, ")
+    return f"{path}: {msg}" + (f" (got {e['input']!r})" if "got" not in msg and "input" in e else "")
 
 
-def _drive(r: _Reader) -> DriveParameters:
-    d = DriveParameters(
-        preload_law=r.choice("preload_law", PRELOAD_LAWS),
-        counter_fraction=r.float("counter_fraction", nonneg=True),
-    )
-    if d.counter_fraction > 1.0:
-        raise ParameterError(f"{r.path}.counter_fraction: must be <= 1, got {d.counter_fraction}")
-    r.done()
-    return d
+def _valid_keys(loc: tuple) -> list[str]:
+    """Field names of the typed class at ``loc`` (the axis name and perfect switch excluded)."""
+    cls: Any = PlantParameters
+    for part in loc:
+        if cls is PlantParameters and part == "axes":
+            cls = AxisParameters
+            continue
+        if part in AXIS_NAMES and cls is AxisParameters:
+            continue
+        cls = cls.__pydantic_fields__[part].annotation
+    return sorted(k for k in cls.__pydantic_fields__ if k not in ("name", "tree") and not (k == "perfect" and cls is AxisParameters))
 
 
-def _fset(r: _Reader) -> FrictionSet:
-    s = FrictionSet(
-        sigma2_nm_s_rad=r.float("sigma2_nm_s_rad", nonneg=True),
-        tc_nm=r.float("tc_nm", nonneg=True),
-        ts_nm=r.float("ts_nm", nonneg=True),
-        omega_s_rad_s=r.float("omega_s_rad_s", positive=True),
-    )
-    r.done()
-    return s
+def _node_at(tree: Any, loc: tuple) -> Any:
+    for part in loc:
+        tree = tree.get(part) if isinstance(tree, dict) else None
+    return tree
 
 
-def _friction(r: _Reader) -> FrictionParameters:
-    f = FrictionParameters(
-        preload=r.choice("preload", PRELOAD_SETS),
-        sigma0_nm_rad=r.float("sigma0_nm_rad", positive=True),
-        sigma1_nm_s_rad=r.float("sigma1_nm_s_rad", nonneg=True),
-        delta=r.float("delta", positive=True),
-        low=_fset(r.section("low")),
-        high=_fset(r.section("high")),
-        tc_pos_nm=r.float("tc_pos_nm", nonneg=True, optional=True),
-        tc_neg_nm=r.float("tc_neg_nm", nonneg=True, optional=True),
-        sigma2_pos_nm_s_rad=r.float("sigma2_pos_nm_s_rad", nonneg=True, optional=True),
-        sigma2_neg_nm_s_rad=r.float("sigma2_neg_nm_s_rad", nonneg=True, optional=True),
-    )
-    r.done()
-    return f
-
-
-def _encoders(r: _Reader) -> EncoderParameters:
-    e = EncoderParameters(
-        incremental_counts_per_rev=r.int("incremental_counts_per_rev"),
-        roller_ratio=r.float("roller_ratio", positive=True),
-        incremental_error_arcsec=r.float("incremental_error_arcsec", nonneg=True),
-        absolute_bits=r.int("absolute_bits"),
-    )
-    r.done()
-    return e
-
-
-def _effects(node: dict, path: str) -> tuple:
-    if "effects" not in node:
-        raise ParameterError(f"{path}.effects: missing (use [] for none)")
-    effs = node["effects"]
-    if effs is None:
-        effs = []
-    if not isinstance(effs, list):
-        raise ParameterError(f"{path}.effects: expected a list of {{kind, params...}}")
-    out = []
-    for i, spec in enumerate(effs):
-        if not isinstance(spec, dict) or "kind" not in spec:
-            raise ParameterError(f"{path}.effects[{i}]: expected a mapping with a 'kind' key")
-        try:  # validate now so a bad scenario fails at load time
-            from plant.effects import build_effect
-
-            build_effect(dict(spec))
-        except ImportError:  # pragma: no cover - effects module is part of the package
-            pass
-        except ValueError as exc:
-            raise ParameterError(f"{path}.effects[{i}]: {exc}") from None
-        out.append(dict(spec))
-    return tuple(out)
-
-
-def _axis(node: Any, name: str, perfect: bool) -> AxisParameters:
-    path = f"axes.{name}"
-    r = _Reader(node, path)
-    a = AxisParameters(
-        name=name,
-        inertia_kg_m2=r.float("inertia_kg_m2", positive=True),
-        max_substep_us=r.int("max_substep_us"),
-        drive_model=r.choice("drive_model", DRIVE_MODELS),
-        motor=_motor(r.section("motor")),
-        gear=_gear(r.section("gear")),
-        drive=_drive(r.section("drive")),
-        friction=_friction(r.section("friction")),
-        encoders=_encoders(r.section("encoders")),
-        effects=_effects(node, path),
-        perfect=perfect,
-    )
-    r.used.add("effects")
-    r.done()
-    return a
-
-
-def _focus(r: _Reader) -> FocusParameters:
-    f = FocusParameters(
-        screw_lead_m=r.float("screw_lead_m", positive=True),
-        belt_ratio=r.float("belt_ratio", positive=True),
-        halfstep_angle_deg=r.float("halfstep_angle_deg", positive=True),
-        travel_m=r.float("travel_m", positive=True),
-        lvdt_center_v=r.float("lvdt_center_v"),
-        lvdt_span_v=r.float("lvdt_span_v", positive=True),
-        adc_bits=r.int("adc_bits"),
-        motor_encoder_counts_per_rev=r.int("motor_encoder_counts_per_rev"),
-        index_offset_m=r.float("index_offset_m"),
-    )
-    r.done()
-    return f
+_PLANT = TypeAdapter(PlantParameters)
 
 
 def parameters_from_tree(tree: dict) -> PlantParameters:
-    """Build typed parameters from a parsed file tree (no overrides).
+    """Build typed parameters from a parsed file tree (no overrides), validated against the
+    typed classes above (one schema).
 
     Raises
     ------
     ParameterError
         Missing/unknown keys, wrong types or out-of-range values (message names the path).
     """
-    root = _Reader(tree, "<root>")
-    root.choice("schema", ("schmidt-fil/plant-parameters/1",))
-    perfect = root.bool("perfect")
-    axes_r = root.section("axes")
-    axes = {}
-    for name in AXIS_NAMES:
-        if name not in axes_r.node:
-            raise ParameterError(f"axes.{name}: missing; present keys: {_keys(axes_r.node)}")
-        axes_r.used.add(name)
-        axes[name] = _axis(axes_r.node[name], name, perfect)
-    axes_r.done()
-    focus = _focus(root.section("focus"))
-    root.done()
-    return PlantParameters(perfect=perfect, axes=axes, focus=focus, tree=tree)
+    if not isinstance(tree, dict):
+        raise ParameterError("<root>: expected a mapping")
+    schema = tree.get("schema")
+    if not _is_leaf(schema) or schema["value"] != SCHEMA:
+        raise ParameterError(f"schema: expected {{value: {SCHEMA}}}, got {schema!r}")
+    values = _values({k: v for k, v in tree.items() if k != "schema"}, "")
+    axes = values.get("axes")
+    if isinstance(axes, dict) and sorted(axes) != sorted(AXIS_NAMES):
+        raise ParameterError(f"axes: expected exactly the axes {list(AXIS_NAMES)}, got {sorted(axes)}")
+    if isinstance(axes, dict):
+        for name, axis in axes.items():
+            if isinstance(axis, dict):  # the axis name and the file's perfect switch go into each axis
+                axis.update(name=name, perfect=values.get("perfect", False))
+    try:
+        return _PLANT.validate_python({**values, "tree": tree})
+    except ValidationError as exc:
+        raise ParameterError(_first_error(exc, values)) from None
 
 
 def load_parameters(
@@ -663,12 +584,6 @@ def _value_of(params: PlantParameters, path: list[str]) -> Any:
     return obj
 
 
-def _plain(v: Any) -> Any:
-    if isinstance(v, float) and v == int(v) and abs(v) < 1e15 and False:
-        return int(v)
-    return v
-
-
 def dump_parameters(params: PlantParameters, path: str | Path) -> None:
     """Write parameters in the file format (units and sources kept from ``params.tree``).
 
@@ -691,7 +606,7 @@ def dump_parameters(params: PlantParameters, path: str | Path) -> None:
                 if prefix == [] and key == "schema":
                     continue
                 v = _value_of(params, prefix + [key])
-                child["value"] = _plain(v)
+                child["value"] = v
             elif key == "effects" and prefix[:1] == ["axes"]:
                 node[key] = [dict(e) for e in _value_of(params, prefix + [key])]
             elif isinstance(child, dict):
