@@ -37,6 +37,7 @@ import binascii
 import struct
 from typing import NamedTuple
 
+from bus import protocol as _P
 from bus.errors import MalformedFrame
 
 __all__ = [
@@ -61,7 +62,8 @@ HEADER_SIZE = len(SYNC) + HEADER.size        # 14
 CRC_SIZE = 2
 _CRC = struct.Struct("<H")
 
-DEVICE_AXIS, DEVICE_READER, DEVICE_FOCUS = 0x01, 0x02, 0x03
+DEVICE_AXIS, DEVICE_READER, DEVICE_FOCUS = (int(_P.DeviceType.AXIS_CONTROLLER), int(_P.DeviceType.POSITION_READER),
+                                         int(_P.DeviceType.FOCUS_CONTROLLER))
 
 #: Sample fields per device type: (name, struct code, unit / scaling). One source of truth for
 #: the codec, the host's telemetry.log columns and docs/protocol.md.
@@ -91,8 +93,8 @@ SAMPLE_FIELDS: dict[int, tuple[tuple[str, str, str], ...]] = {
     ),
 }
 
-#: Node ids allowed for each device type (architecture table).
-DEVICE_OF_NODE = {1: DEVICE_AXIS, 2: DEVICE_AXIS, 3: DEVICE_READER, 4: DEVICE_READER, 5: DEVICE_FOCUS}
+#: Device type of each board node (from the protocol's node table, the host excluded).
+DEVICE_OF_NODE = {int(n): int(d) for n, d in _P.DEVICE_TYPE_OF_NODE.items() if d != _P.DeviceType.HOST}
 
 #: One precompiled struct per device type for a single sample.
 SAMPLE_STRUCTS = {d: struct.Struct("<" + "".join(c for _, c, _ in f)) for d, f in SAMPLE_FIELDS.items()}

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import socket
+from pathlib import Path
 
 import can
 import numpy as np
@@ -18,6 +19,8 @@ from host.network import build_network
 
 from host.scenario import load_scenario
 from host.serve import DEFAULT_SCENARIO, ServeSession, serve_scenario, served_interface
+
+ROOT = Path(__file__).resolve().parent.parent
 
 SIDEREAL_ARCSEC_S = 15.0
 
@@ -215,3 +218,19 @@ def test_cli_serve_rejects_a_bad_duration(tmp_path, capsys):
     """--duration must be positive: one-line error before anything is built."""
     assert main(["serve", "--out", str(tmp_path / "x"), "--duration", "0"]) == 1
     assert "--duration must be > 0" in capsys.readouterr().err
+
+
+def test_docs_serve_in_process_example_runs_verbatim(capsys, monkeypatch):
+    """The in-process example of docs/serve.md, executed exactly as written (from the repository
+    root): five HEARTBEATs answer its PING, and the RA axis then tracks."""
+    text = (ROOT / "docs/serve.md").read_text(encoding="utf-8")
+    section = text.split("## In the same Python process", 1)[1]
+    code = section.split("```python\n", 1)[1].split("```", 1)[0]
+    monkeypatch.chdir(ROOT)
+    scope: dict = {}
+    exec(compile(code, "docs/serve.md", "exec"), scope)
+    lines = capsys.readouterr().out.splitlines()
+    assert sum("HEARTBEAT" in ln and "state=BOOT" in ln for ln in lines) == 5, lines           # at power-on
+    assert sum("HEARTBEAT" in ln and "state=OPERATIONAL" in ln for ln in lines) == 5, lines    # the PING's answers
+    tel = scope["tel"]
+    assert tel.plants["ra"].axis_rate_arcsec_s == pytest.approx(15.0, abs=5.0)   # tracking, not stopped

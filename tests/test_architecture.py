@@ -1,0 +1,125 @@
+"""The structure docs/architecture.md promises: import direction, one registry, one source per constant."""
+
+import ast
+import re
+from pathlib import Path
+
+import can
+
+from boards import registry as R
+from bus import protocol as P
+from bus import telemetry as T
+from host.faults import FAULT_KINDS, FAULTS
+from host.network import PORTS, build_network
+from host.scenario import Fault, parse_scenario
+
+ROOT = Path(__file__).resolve().parent.parent
+PACKAGES = ("boards", "bus", "plant", "host")
+
+
+def _imports(path: Path) -> set[str]:
+    """Every module imported anywhere in ``path`` (function-local imports included)."""
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            out |= {a.name for a in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            out.add(node.module)
+            out |= {f"{node.module}.{a.name}" for a in node.names}
+    return out
+
+
+def _package_imports() -> dict[str, set[str]]:
+    deps = {}
+    for pkg in PACKAGES:
+        for f in (ROOT / pkg).rglob("*.py"):
+            deps[str(f.relative_to(ROOT))] = {m for m in _imports(f) if m.split(".")[0] in PACKAGES}
+    return deps
+
+
+def test_imports_run_one_way_between_the_four_packages():
+    """host -> boards/bus/plant; boards -> bus; plant -> only the two leaf modules bus.units and
+    bus.errors; bus -> nothing of the others. So no import cycle among the packages."""
+    allowed = {"host": set(PACKAGES), "boards": {"boards", "bus"}, "bus": {"bus"}, "plant": {"plant", "bus"}}
+    for f, mods in _package_imports().items():
+        pkg = f.split("/")[0]
+        for m in mods:
+            assert m.split(".")[0] in allowed[pkg], f"{f} imports {m}"
+            if pkg == "plant" and m.startswith("bus"):
+                assert m in ("bus.units", "bus.errors", "bus.units.ARCSEC_PER_RAD", "bus.units.ARCSEC_PER_REV",
+                             "bus.units.check_counter_fraction", "bus.errors.ConfigurationError"), f"{f} imports {m}"
+
+
+def test_host_modules_have_no_import_cycle():
+    """Within host/, module imports form no cycle (scenario no longer imports network back)."""
+    graph = {}
+    for f, mods in _package_imports().items():
+        if f.startswith("host/"):
+            me = f[:-3].replace("/", ".")
+            graph[me] = {m for m in mods if m.startswith("host.") and m.count(".") == 1}
+
+    def visit(node, stack):
+        assert node not in stack, " -> ".join([*stack, node])
+        for nxt in graph.get(node, ()):
+            visit(nxt, [*stack, node])
+
+    for node in graph:
+        visit(node, [])
+
+
+def test_shared_constants_are_defined_once():
+    """ARCSEC_PER_RAD, ARCSEC_PER_REV and Q15_FULL_SCALE are assigned only in bus/units.py, and no
+    module writes their values out as literals."""
+    for pkg in PACKAGES:
+        for f in (ROOT / pkg).rglob("*.py"):
+            rel = str(f.relative_to(ROOT))
+            text = f.read_text(encoding="utf-8")
+            for node in ast.walk(ast.parse(text)):
+                if isinstance(node, ast.Assign) and rel != "bus/units.py":
+                    names = {t.id for t in node.targets if isinstance(t, ast.Name)}
+                    assert not names & {"ARCSEC_PER_RAD", "ARCSEC_PER_REV", "Q15_FULL_SCALE"}, rel
+            if rel != "bus/units.py" and not rel.startswith("plant/calibration"):
+                code = re.sub(r"#.*", "", text)
+                assert "648_000" not in code and "1_296_000" not in code and "206264" not in code, rel
+
+
+def test_registry_agrees_with_the_protocol():
+    """Every board's node id and device type are the protocol's; the registry names every board
+    node once; telemetry device ids come from the same table."""
+    assert sorted(int(i.node_id) for _, i in R.BOARDS.values()) == sorted(int(n) for n in P.BOARD_NODES)
+    for name, (spec, inst) in R.BOARDS.items():
+        assert P.DEVICE_TYPE_OF_NODE[inst.node_id] == spec.device_type, name
+        assert T.DEVICE_OF_NODE[int(inst.node_id)] == int(spec.device_type), name
+        assert set(spec.ports) <= set(PORTS), f"{name}: no port factory for {set(spec.ports) - set(PORTS)}"
+        assert spec.sends(inst.node_id), name
+        assert spec.accepts(inst.node_id)[0][0] == P.host_broadcast_cob_id()
+
+
+def test_scenario_names_come_from_the_registry_and_the_fault_table():
+    """The scenario schema's board and fault names are the registry's and the fault table's."""
+    ann = Fault.model_fields
+    assert ann["board"].annotation.__args__ == R.BOARD_NAMES
+    assert ann["kind"].annotation.__args__ == FAULT_KINDS == tuple(FAULTS)
+
+
+def test_built_network_follows_the_registry(tmp_path):
+    """build_network builds exactly the registry's boards, each of its firmware class, and on
+    the bus each board sends only the frames the registry says it sends."""
+    sc = parse_scenario("name: r\nsegments:\n  - {name: a, mode: stop, duration_s: 1}\n", str(tmp_path / "s.yaml"))
+    tel = build_network(sc)
+    seen: dict[int, set] = {}
+    try:
+        tel.network.add_tap(lambda m: seen.setdefault(m.arbitration_id, set()).add(m.data[0]))
+        tel.client.power_on()
+        tel.client.command_axis("ra", "track", 1)
+        tel.scheduler.run_until(tel.scheduler.now_us + 1_500_000)
+    finally:
+        tel.close()
+    assert list(tel.boards) == list(R.BOARD_NAMES)
+    sent_by_boards = set()
+    for name, (spec, inst) in R.BOARDS.items():
+        assert type(tel.boards[name]) is spec.firmware and tel.boards[name].node_id == inst.node_id
+        sent_by_boards |= {cob for cob, _ in spec.sends(inst.node_id)}
+    board_frames = {cob for cob, dts in seen.items() if int(P.DeviceType.HOST) not in dts}
+    assert board_frames and board_frames <= sent_by_boards
+    assert isinstance(tel.client.bus, can.BusABC)
