@@ -100,10 +100,8 @@ class AxisController(Board):
 
     Parameters
     ----------
-    scheduler : Scheduler
-        The simulation clock.
-    bus : can.BusABC
-        This board's CAN bus handle.
+    scheduler, bus, name, serial_port
+        As :class:`boards.firmware_base.Board`.
     node_id : int
         1 (RA) or 2 (DEC).
     read_qei_counts : callable

@@ -74,10 +74,8 @@ class FocusController(Board):
 
     Parameters
     ----------
-    scheduler : Scheduler
-        The simulation clock.
-    bus : can.BusABC
-        This board's CAN bus handle.
+    scheduler, bus, name, serial_port
+        As :class:`boards.firmware_base.Board`.
     node_id : int
         5.
     on_step : callable

@@ -55,10 +55,8 @@ class PositionReader(Board):
 
     Parameters
     ----------
-    scheduler : Scheduler
-        The simulation clock.
-    bus : can.BusABC
-        This board's CAN bus handle.
+    scheduler, bus, name, serial_port
+        As :class:`boards.firmware_base.Board`.
     node_id : int
         3 (RA) or 4 (DEC).
     read_position_word : callable
