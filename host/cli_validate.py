@@ -13,8 +13,7 @@ def add_subparser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from host.scenario import resolve_parameters
-    from host.scenario import load_scenario
+    from host.scenario import load_scenario, resolve_parameters
 
     for path in args.scenarios:
         sc = load_scenario(path)

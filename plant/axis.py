@@ -44,6 +44,7 @@ import math
 
 from bus.units import ARCSEC_PER_RAD  # the one module of bus that plant imports (a constants leaf)
 from plant import kernel
+from plant.effects import Backlash
 from plant.friction import LuGre, lugre_from_parameters
 from plant.params import AxisParameters
 
@@ -122,7 +123,7 @@ class AxisPlant:
         self._ct = g.damping_ratio * math.sqrt(g.stiffness_nm_rad * params.inertia_kg_m2)  # 2ζ√(kJ)/2
         width = g.backlash_rad
         for e in self.effects:
-            if getattr(e, "kind", "") == "backlash":
+            if getattr(e, "kind", "") == Backlash.kind:
                 width = float(e.width_rad)
         if self.perfect or self.rigid:
             width = 0.0

@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from plant.effects import AsymmetricFriction, Presliding
 from plant.params import FrictionParameters
 
 __all__ = ["LuGre", "lugre_from_parameters", "static_friction_nm", "stribeck_nm"]
@@ -113,10 +114,10 @@ def lugre_from_parameters(friction: FrictionParameters, effects=()) -> LuGre:
     sigma0, sigma1 = friction.sigma0_nm_rad, friction.sigma1_nm_s_rad
     for e in effects:
         kind = getattr(e, "kind", "")
-        if kind == "asymmetric_friction":
+        if kind == AsymmetricFriction.kind:
             tc_pos, tc_neg = float(e.coulomb_pos_nm), float(e.coulomb_neg_nm)
             s2_pos, s2_neg = float(e.viscous_pos_nm_s_rad), float(e.viscous_neg_nm_s_rad)
-        elif kind == "presliding":
+        elif kind == Presliding.kind:
             sigma0, sigma1 = float(e.sigma0_nm_rad), float(e.sigma1_nm_s_rad)
     return LuGre(
         sigma0_nm_rad=sigma0,
