@@ -289,10 +289,10 @@ def parse_scenario(text: str, path: str = "<string>") -> Scenario:
             line = lines.get(tuple(loc[:n]))
             if line:
                 break
-        problem = err["msg"]
+        problem = err["msg"].removeprefix("Value error, ")
         if err["type"] == "extra_forbidden":
             problem = f"unknown key; {_valid_keys_hint(loc)}"
-        elif "input" in err and err["type"] not in ("missing",):
+        elif "input" in err and err["type"] not in ("missing", "value_error"):
             problem = f"{problem} (got {err['input']!r})"
         raise ScenarioError(path, line, _dotted(loc), problem) from None
     # The plant parameter file and every override must resolve too, before anything runs.
