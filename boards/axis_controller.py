@@ -140,7 +140,7 @@ class AxisController(Board):
     limit_stop : {"hold", "coast"}
         On a limit: "hold" = PI to zero rate and hold; "coast" = U = 0, duties 0.
     name : str, optional
-        Owner name (default "ra-axis"/"dec-axis").
+        Owner name (default ``"axis-<node>"``; the network passes the registry name).
     serial_port : object, optional
         RS232 telemetry port with the pyserial ``write()`` API (None: no telemetry).
     """
@@ -167,8 +167,7 @@ class AxisController(Board):
         if limit_stop not in ("hold", "coast"):
             raise ValueError("limit_stop must be 'hold' or 'coast'")
         self.axis = (node_id - 1) if axis is None else int(axis)
-        default_name = ("ra-axis", "dec-axis")[self.axis] if self.axis in (0, 1) else None
-        super().__init__(scheduler, bus, node_id, name=name or default_name,
+        super().__init__(scheduler, bus, node_id, name=name,
                          background_period_us=tick_us, serial_port=serial_port,
                          telemetry_period_us=int(tick_us) * int(status_every_ticks))
         self.tick_us = int(tick_us)

@@ -97,8 +97,8 @@ class FocusController(Board):
         Targets are clamped to ±this (800 = ±5 mm).
     status_period_us : int
         FOCUS_STATUS period, µs (250 000, §5.2).
-    name : str
-        Owner name.
+    name : str, optional
+        Owner name (default ``"focus-<node>"``; the network passes the registry name).
     serial_port : object, optional
         RS232 telemetry port with the pyserial ``write()`` API (None: no telemetry).
     """
@@ -111,7 +111,7 @@ class FocusController(Board):
                  read_index: Optional[Callable[[], bool]] = None,
                  on_power: Optional[Callable[[str], None]] = None,
                  step_rate_hz: int = STEP_RATE_HZ, travel_halfsteps: int = TRAVEL_HALFSTEPS,
-                 status_period_us: int = 250_000, name: str = "focus",
+                 status_period_us: int = 250_000, name: Optional[str] = None,
                  read_encoder_counts: Optional[Callable[[], int]] = None,
                  encoder_counts_per_rev: int = ENCODER_COUNTS_PER_REV, serial_port=None) -> None:
         # the main loop runs every 5 ms (it also polls CAN on buses without a receive interrupt);

@@ -74,7 +74,7 @@ class PositionReader(Board):
     limit_repeat_us : int
         LIMIT repeat period while active, µs (100 000).
     name : str, optional
-        Owner name (default "ra-reader"/"dec-reader").
+        Owner name (default ``"reader-<node>"``; the network passes the registry name).
     serial_port : object, optional
         RS232 telemetry port with the pyserial ``write()`` API (None: no telemetry).
     """
@@ -89,8 +89,7 @@ class PositionReader(Board):
                  offset_counts: int = 0, limit_repeat_us: int = 100_000,
                  name: Optional[str] = None, serial_port=None) -> None:
         self.axis = (node_id - 3) if axis is None else int(axis)
-        default_name = ("ra-reader", "dec-reader")[self.axis] if self.axis in (0, 1) else None
-        super().__init__(scheduler, bus, node_id, name=name or default_name,
+        super().__init__(scheduler, bus, node_id, name=name,
                          background_period_us=read_period_us, serial_port=serial_port,
                          telemetry_period_us=read_period_us)
         lo, hi = DEFAULT_LIMITS_DEG.get(self.axis, (-180.0, 180.0))
