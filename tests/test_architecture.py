@@ -123,3 +123,28 @@ def test_built_network_follows_the_registry(tmp_path):
     board_frames = {cob for cob, dts in seen.items() if int(P.DeviceType.HOST) not in dts}
     assert board_frames and board_frames <= sent_by_boards
     assert isinstance(tel.client.bus, can.BusABC)
+
+
+def test_a_new_board_kind_is_one_firmware_class_and_one_registry_entry(tmp_path, monkeypatch):
+    """A board kind the network has never seen (here a bare firmware in the focus node's place)
+    is built, started, health-checked and reported from its registry entry alone: no edit in
+    the assembly, the host or the report."""
+    from boards.firmware_base import Board
+    import host.network as N
+
+    class Minimal(Board):
+        DEVICE_TYPE = int(P.DeviceType.FOCUS_CONTROLLER)
+        KIND = "minimal"
+
+    spec = R.BoardSpec(kind="minimal", firmware=Minimal, device_type=P.DeviceType.FOCUS_CONTROLLER, ports=(),
+                       instances=(R.BoardInstance("focus", P.NodeId.FOCUS),))
+    monkeypatch.setattr(N, "BOARDS", {**R.BOARDS, "focus": (spec, spec.instances[0])})
+    sc = parse_scenario("name: r\nsegments:\n  - {name: a, mode: stop, duration_s: 1}\n", str(tmp_path / "s.yaml"))
+    tel = build_network(sc)
+    try:
+        assert type(tel.boards["focus"]) is Minimal
+        assert tel.client.power_on().ok            # it answers the health check's PING
+        rows = tel.board_summary()
+    finally:
+        tel.close()
+    assert rows["focus"]["node"] == int(P.NodeId.FOCUS) and rows["focus"]["state"] == "OPERATIONAL"
