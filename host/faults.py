@@ -16,8 +16,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
+from boards.registry import BOARDS
 from boards.registry import board as registry_board
-from bus import protocol as P
 
 __all__ = ["FaultKind", "FAULTS", "FAULT_KINDS", "FAULT_PARAMS", "check_fault", "inject"]
 
@@ -100,8 +100,7 @@ def check_fault(kind: str, board: str, params: dict) -> None:
     fk = FAULTS[kind]
     spec, _ = registry_board(board)
     if fk.board_kinds is not None and spec.kind not in fk.board_kinds:
-        valid = [n for n in _names_of_kinds(fk.board_kinds)]
-        raise ValueError(f"{kind} needs board: {' or '.join(valid)}, not {board}")
+        raise ValueError(f"{kind} needs board: {' or '.join(_names_of_kinds(fk.board_kinds))}, not {board}")
     for name in fk.needs:
         if params.get(name) is None:
             raise ValueError(f"{kind} needs {name}")
@@ -111,8 +110,6 @@ def check_fault(kind: str, board: str, params: dict) -> None:
 
 
 def _names_of_kinds(kinds: tuple[str, ...]) -> list[str]:
-    from boards.registry import BOARDS
-
     return [name for name, (spec, _) in BOARDS.items() if spec.kind in kinds]
 
 

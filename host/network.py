@@ -40,7 +40,7 @@ import can
 import bus as _bus_pkg  # noqa: F401  (registers the schmidt-sim python-can interface)
 from boards.axis_controller import PRESET_RATES_ARCSEC_S, AxisMode
 from boards.peripherals import Adc
-from boards.registry import BOARD_NAMES, BOARDS, REGISTRY, BoardInstance
+from boards.registry import BOARD_NAMES, BOARDS, BoardInstance
 from boards.tuning import GAINS_SOURCE, design_axis_gains
 from bus import protocol as P
 from bus.network import CanNetwork
