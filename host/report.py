@@ -4,8 +4,9 @@ How velocity and errors are measured (this text is also written into every repor
 
 * **Velocity** is what the operator sees: the incremental-encoder (QEI) count carried in every
   ``AXIS_STATUS`` frame (every 10 ms), unwrapped by the host, differenced over non-overlapping
-  windows of ``velocity_window_ms`` (default 100 ms) and scaled by 0.01148 arcsec/count
-  (4.608e6 counts/rev through the 1:24.5 roller, paper §2.2/§3.2). One count per 100 ms is
+  windows of ``velocity_window_ms`` (default 100 ms) and scaled by the axis controller's encoder
+  resolution (``resolution_pct`` per segment; 0.01148 arcsec/count with the packaged parameters:
+  4.608e6 counts/rev through the 1:24.5 roller, paper §2.2/§3.2). One count per 100 ms is then
   0.115 arcsec/s, 0.77 % of the 15 arcsec/s tracking rate: that is the resolution floor of every
   percentage in the report. A per-tick (5 ms) rate would have a 2.3 arcsec/s step (15 % of
   sidereal), which is why the report does not use it.
