@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import yaml
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import AfterValidator, BaseModel, PrivateAttr, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from boards.registry import BOARD_NAMES
 from bus.errors import ConfigurationError
@@ -205,6 +205,9 @@ class Scenario(_Strict):
     faults: list[Fault] = Field(default_factory=list)
     segments: list[Segment] = Field(min_length=1)
     source_path: str = Field("<string>", exclude=True)
+    #: (plant section, source path, parameters) resolved when the scenario was loaded, so the
+    #: parameter file is read once; a copy with another plant section resolves again.
+    _resolved: tuple | None = PrivateAttr(default=None)
 
     @field_validator("segments")
     @classmethod
@@ -297,7 +300,7 @@ def parse_scenario(text: str, path: str = "<string>") -> Scenario:
         raise ScenarioError(path, line, _dotted(loc), problem) from None
     # The plant parameter file and every override must resolve too, before anything runs.
     try:
-        resolve_parameters(scenario)
+        scenario._resolved = (scenario.plant, scenario.source_path, resolve_parameters(scenario))
     except ScenarioError as exc:
         if exc.line is None:
             prefix = ("plant", "overrides")
@@ -331,7 +334,8 @@ def _valid_keys_hint(loc: tuple) -> str:
 
 def resolve_parameters(scenario: Scenario) -> PlantParameters:
     """Load the scenario's plant parameter file with its overrides (``plant.preload``,
-    ``plant.perfect``, ``plant.overrides``): the parameters the plant will run.
+    ``plant.perfect``, ``plant.overrides``): the parameters the plant will run. A scenario from
+    :func:`parse_scenario` carries them already (the file is read once, at load time).
 
     Raises
     ------
@@ -339,6 +343,9 @@ def resolve_parameters(scenario: Scenario) -> PlantParameters:
         The parameter file is missing or an override names an unknown parameter (the message
         names the scenario file and the ``plant.overrides`` key).
     """
+    cached = scenario._resolved
+    if cached is not None and cached[0] == scenario.plant and cached[1] == scenario.source_path:
+        return cached[2]                # resolved (and validated) when the scenario was loaded
     pc = scenario.plant
     path = None
     if pc.parameter_file:
