@@ -16,13 +16,13 @@ import sys
 from pathlib import Path
 from typing import Dict, List
 
-from bus.eds.objects import (ARRAY, INTEGER32, KINDS, RECORD, SOFTWARE_VERSION, VAR, VENDOR_ID,
+from bus.eds.objects import (DUMMY_UNSIGNED8, ARRAY, INTEGER32, KINDS, RECORD, SOFTWARE_VERSION, VAR, VENDOR_ID,
                              Entry, Kind, Obj)
 
 __all__ = ["render_eds", "write_all", "check_all", "EDS_DIR", "main"]
 
 EDS_DIR = Path(__file__).resolve().parent
-_SIGNED = {0x02, 0x03, INTEGER32, 0x15}
+_SIGNED = {0x02, 0x03, INTEGER32, 0x10, 0x15}
 _BAUD_RATES_KBIT = (10, 20, 50, 125, 250, 500, 800, 1000)
 _BITRATE_KBIT = 1000        # the paper's bus: 1 Mbit/s
 
@@ -93,7 +93,7 @@ def render_eds(kind: str) -> str:
     lines += ["SimpleBootUpMaster=0", "SimpleBootUpSlave=1", "Granularity=0",
               "DynamicChannelsSupported=0", "GroupMessaging=0",
               f"NrOfRXPDO={len(k.rpdos)}", f"NrOfTXPDO={len(k.tpdos)}", "LSS_Supported=0", "",
-              "[DummyUsage]"] + [f"Dummy{i:04d}=0" for i in range(1, 8)] + [""]
+              "[DummyUsage]"] + [f"Dummy{i:04d}={int(i == DUMMY_UNSIGNED8)}" for i in range(1, 8)] + [""]
     comments = [f"Nodes: {', '.join(str(n) for n in k.nodes)}. Generated; do not edit by hand.",
                 "Objects without DefaultValue are set by the firmware's configuration: read them by SDO.",
                 "PDOs carry the paper's 8-byte frames (byte 0 = device type): see docs/canopen.md."]

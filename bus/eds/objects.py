@@ -46,10 +46,11 @@ from bus import protocol as proto
 __all__ = ["Entry", "Obj", "Kind", "KINDS", "VENDOR_ID", "REVISION", "SOFTWARE_VERSION",
            "EMCY_CODES", "EmcyCode", "serial_number", "cob_id_plan_rows",
            "UNSIGNED8", "UNSIGNED16", "UNSIGNED32", "INTEGER32", "VISIBLE_STRING",
-           "NMT_CMD_CODE", "BOOTUP", "STOP_ALL_COB_ID"]
+           "NMT_CMD_CODE", "BOOTUP", "STOP_ALL_COB_ID", "PDO_FRAMES", "frame_fields"]
 
 # CiA 301 data type codes (canopen.objectdictionary.datatypes uses the same numbers)
 INTEGER8, INTEGER16, INTEGER32 = 0x02, 0x03, 0x04
+INTEGER24, UNSIGNED24 = 0x10, 0x16
 UNSIGNED8, UNSIGNED16, UNSIGNED32 = 0x05, 0x06, 0x07
 VISIBLE_STRING = 0x09
 
@@ -356,7 +357,62 @@ def _communication_objects(k: Kind) -> List[Obj]:
                 subs.append(Entry(5, "Event timer", UNSIGNED16, "ro", p.period_ms, unit="ms"))
             objs.append(compound(base + p.number - 1, f"{kind}{p.number} communication parameter",
                                  RECORD, subs, p.frame))
+            objs.append(_mapping(p.frame, base + 0x200, p.number, kind))
+    frames = [(p.frame, False) for p in k.tpdos] + [(p.frame, True) for p in k.rpdos]
+    objs += [_process_data(f, rx) for f, rx in dict.fromkeys(frames)]
     return objs
+
+
+#: Process-data objects: one RECORD per frame carried as a PDO, in this order from 0x3000.
+PDO_FRAMES = ("AXIS_STATUS", "AXIS_AUX", "AXIS_COMMAND", "LIMIT", "POSITION", "FOCUS_STATUS",
+              "FOCUS_COMMAND", "STOP_ALL")
+PROCESS_DATA_BASE = 0x3000
+DUMMY_UNSIGNED8 = 0x0005          # CiA 301 dummy mapping entry (one padding byte)
+_TYPE_BY_BYTES = {(1, False): UNSIGNED8, (2, False): UNSIGNED16, (3, False): UNSIGNED24,
+                  (4, False): UNSIGNED32, (1, True): INTEGER8, (2, True): INTEGER16,
+                  (3, True): INTEGER24, (4, True): INTEGER32}
+
+
+def frame_fields(frame: str) -> List[Tuple[str, int, int, bool]]:
+    """(name, start byte, bytes, signed) of every field of ``frame``'s 8 data bytes after byte 0.
+
+    Taken from :data:`bus.protocol.FRAMES` (the one frame table); a field is mapped as the
+    smallest whole-byte type holding its bits (the 29-bit pos_counts an UNSIGNED32, the 10-bit
+    ADC counts an UNSIGNED16); unused bytes are dummy entries. STOP_ALL is HOST_BROADCAST's
+    cmd (3) and target node.
+    """
+    spec = proto.FRAMES["HOST_BROADCAST" if frame == "STOP_ALL" else frame]
+    fields = [f for f in spec.fields if not (frame == "STOP_ALL" and f.name == "reset_cause")]
+    return [(f.name, f.start_byte, (f.bits + 7) // 8, f.signed) for f in fields]
+
+
+def _process_data(frame: str, rx: bool) -> Obj:
+    access = "rww" if rx else "ro"
+    subs = [Entry(1, "device_type", UNSIGNED8, access, pdo_mapping=True,
+                  description="byte 0: the sender's device type")]
+    for j, (name, start, nbytes, signed) in enumerate(frame_fields(frame)):
+        subs.append(Entry(j + 2, name, _TYPE_BY_BYTES[(nbytes, signed)], access, pdo_mapping=True))
+    return compound(PROCESS_DATA_BASE + PDO_FRAMES.index(frame), frame, RECORD, subs,
+                    f"process data of {frame} (bus/protocol.py, bus/schmidt.dbc)")
+
+
+def _mapping(frame: str, base: int, number: int, kind: str) -> Obj:
+    """Static mapping (0x1600/0x1A00 + n − 1) of ``frame``: byte 0, fields, dummy padding."""
+    index = PROCESS_DATA_BASE + PDO_FRAMES.index(frame)
+    entries = [(index << 16) | (1 << 8) | 8]
+    pos = 1
+    for j, (name, start, nbytes, signed) in enumerate(frame_fields(frame)):
+        while pos < start:
+            entries.append((DUMMY_UNSIGNED8 << 16) | 8)
+            pos += 1
+        entries.append((index << 16) | ((j + 2) << 8) | (8 * nbytes))
+        pos = start + nbytes
+    while pos < 8:
+        entries.append((DUMMY_UNSIGNED8 << 16) | 8)
+        pos += 1
+    subs = [Entry(i + 1, f"Mapped object {i + 1}", UNSIGNED32, "ro", e)
+            for i, e in enumerate(entries)]
+    return compound(base + number - 1, f"{kind}{number} mapping parameter", RECORD, subs, frame)
 
 
 def _diagnostics(k: Kind) -> List[Obj]:
