@@ -145,3 +145,14 @@ def test_pdo_frames_are_frames_of_bus_protocol():
     for k in KINDS.values():
         for p in k.tpdos + k.rpdos:
             assert p.frame in PDO_FRAMES
+
+
+def test_docs_canopen_tables_are_the_generated_ones():
+    """docs/canopen.md shows the COB-ID plan, objects and EMCY codes exactly as the table has them."""
+    from pathlib import Path
+
+    from bus.eds.objects import cob_id_plan_markdown, emcy_markdown, objects_markdown
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "canopen.md").read_text()
+    for table in (cob_id_plan_markdown(), objects_markdown(), emcy_markdown()):
+        assert table in doc
+    assert "the plan the wiring follows" in doc

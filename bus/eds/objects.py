@@ -46,7 +46,8 @@ from bus import protocol as proto
 __all__ = ["Entry", "Obj", "Kind", "KINDS", "VENDOR_ID", "REVISION", "SOFTWARE_VERSION",
            "EMCY_CODES", "EmcyCode", "serial_number", "cob_id_plan_rows",
            "UNSIGNED8", "UNSIGNED16", "UNSIGNED32", "INTEGER32", "VISIBLE_STRING",
-           "NMT_CMD_CODE", "BOOTUP", "STOP_ALL_COB_ID", "PDO_FRAMES", "frame_fields"]
+           "NMT_CMD_CODE", "BOOTUP", "STOP_ALL_COB_ID", "PDO_FRAMES", "frame_fields",
+           "cob_id_plan_markdown", "objects_markdown", "emcy_markdown"]
 
 # CiA 301 data type codes (canopen.objectdictionary.datatypes uses the same numbers)
 INTEGER8, INTEGER16, INTEGER32 = 0x02, 0x03, 0x04
@@ -161,8 +162,8 @@ EMCY_CODES: Dict[str, EmcyCode] = {e.name: e for e in (
              "a motion command toward an active limit was refused (detail = command code)"),
     EmcyCode("WATCHDOG_RESET", 0x6010, ERR_GENERIC, False, 5,
              "booted after a watchdog reset (detail = reset count)"),
-    EmcyCode("STEP_LOSS", 0x8611, ERR_PROFILE, True, 6,
-             "focus encoder disagrees with the half-step counter (detail = missed half-steps)"),
+    EmcyCode("STEP_LOSS", 0x8611, ERR_PROFILE, False, 6,
+             "focus encoder and half-step counter disagree by a new amount (detail = missed half-steps)"),
     EmcyCode("HEARTBEAT_LOST", 0x8130, ERR_COMMUNICATION, True, 0,
              "a consumed heartbeat (0x1016) timed out (detail = the silent node id)"),
 )}
@@ -432,15 +433,65 @@ def _fmt_cob(cob: Union[int, str]) -> Value:
     return cob if isinstance(cob, str) else cob
 
 
-def cob_id_plan_rows() -> List[Tuple[str, str, str, str]]:
-    """The PDO part of the COB-ID plan as (frame, sender, PDO, COB-IDs) rows, for docs/canopen.md."""
+def _today_cob_id(frame: str, cob_id: int) -> int:
+    """The identifier the frame has on today's bus (bus/protocol.py), for the plan's table."""
+    if frame == "STOP_ALL":
+        return proto.host_broadcast_cob_id()
+    if frame == "LIMIT":
+        return proto.limit_cob_id(cob_id - 0x280)          # the producing reader's node id
+    return proto.FRAMES[frame].function_code + (cob_id & 0x7F)
+
+
+def cob_id_plan_rows() -> List[Tuple[str, str, str, str, str]]:
+    """The PDO part of the COB-ID plan: (frame, board kind, PDO, COB-IDs, today's COB-IDs)."""
     rows = []
-    for k in KINDS.values():
-        for p in k.tpdos:
-            ids = ", ".join(f"0x{p.cob_id_for(n):03X}" for n in k.nodes)
-            rows.append((p.frame, k.name, f"TPDO{p.number}", ids))
-    for k in KINDS.values():
-        for p in k.rpdos:
-            ids = ", ".join(f"0x{p.cob_id_for(n):03X}" for n in k.nodes)
-            rows.append((p.frame, k.name, f"RPDO{p.number}", ids))
+    for direction in ("tpdos", "rpdos"):
+        for k in KINDS.values():
+            for p in getattr(k, direction):
+                ids = [p.cob_id_for(n) for n in k.nodes]
+                today = [_today_cob_id(p.frame, i) for i in ids]
+                rows.append((p.frame, k.name, f"{direction[0].upper()}PDO{p.number}",
+                             ", ".join(f"0x{i:03X}" for i in ids),
+                             ", ".join(f"0x{i:03X}" for i in today)))
     return rows
+
+
+def cob_id_plan_markdown() -> str:
+    """docs/canopen.md's PDO table (a test checks the page contains exactly this)."""
+    lines = ["| frame | board kind | PDO | COB-ID (per node) | today |",
+             "|---|---|---|---|---|"]
+    for frame, kind, pdo, ids, today in cob_id_plan_rows():
+        mark = "" if ids == today else " (moves)"
+        lines.append(f"| {frame} | {kind} | {pdo} | {ids} | {today}{mark} |")
+    return "\n".join(lines)
+
+
+def emcy_markdown() -> str:
+    """docs/canopen.md's table of EMCY codes (checked by a test)."""
+    lines = ["| name | EMCY code | 0x1001 bits | kind | project fault code | meaning |",
+             "|---|---|---|---|---|---|"]
+    for e in EMCY_CODES.values():
+        lines.append(f"| {e.name} | 0x{e.code:04X} | 0x{e.register_bits | ERR_GENERIC:02X} | "
+                     f"{'condition' if e.condition else 'event'} | {e.fault_code} | {e.description} |")
+    return "\n".join(lines)
+
+
+def objects_markdown() -> str:
+    """docs/canopen.md's table of manufacturer objects with ranges and units (checked by a test)."""
+    lines = ["| board kind | index:sub | name | type | access | range | unit |",
+             "|---|---|---|---|---|---|---|"]
+    tnames = {INTEGER8: "INTEGER8", INTEGER16: "INTEGER16", INTEGER32: "INTEGER32",
+              UNSIGNED8: "UNSIGNED8", UNSIGNED16: "UNSIGNED16", UNSIGNED32: "UNSIGNED32"}
+    for k in KINDS.values():
+        for o in k.objects():
+            if not 0x2000 <= o.index < 0x3000:
+                continue
+            for e in o.entries:
+                if e.subindex == 0 and o.object_type != VAR:
+                    continue
+                rng = "" if e.low is None else f"{e.low} .. {e.high}"
+                name = e.name if o.object_type == VAR else f"{o.name}: {e.name}"
+                lines.append(f"| {k.name} | 0x{o.index:04X}:{e.subindex} | {name} | "
+                             f"{tnames.get(e.data_type, hex(e.data_type))} | {e.access} | {rng} | "
+                             f"{e.unit} |")
+    return "\n".join(lines)
