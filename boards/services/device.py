@@ -24,7 +24,7 @@ Nothing here reads the wall clock, sleeps or starts a thread.
 
 from __future__ import annotations
 
-from typing import Callable, Dict, List, Optional, Set
+from typing import Callable, Dict, Optional, Set
 
 from canopen import LocalNode, ObjectDictionary
 from canopen import objectdictionary as cod
@@ -146,7 +146,6 @@ class CanopenDevice:
         self._rpdo_ids: Set[int] = {p.cob_id_for(self.node_id) for p in self.kind.rpdos}
         self._consumed: Set[int] = set()
         self.powered = False
-        self._booting = False
         self._booted_in_reset = False
         self.boots = 0
         self.pdos_sent = 0
@@ -195,14 +194,10 @@ class CanopenDevice:
         at the 0x1017 period.
         """
         self.powered = True
-        self._booting = True
-        try:
-            self._reset_communication_objects()
-            self.nmt._state = _INITIALISING
-            self.nmt.send_command(NMT_CMD_CODE["reset node"])        # state 0 → boot-up frame
-            self.nmt.send_command(NMT_CMD_CODE["pre-operational"])   # → 127, heartbeat starts
-        finally:
-            self._booting = False
+        self._reset_communication_objects()
+        self.nmt._state = _INITIALISING
+        self.nmt.send_command(NMT_CMD_CODE["reset node"])        # state 0 → boot-up frame
+        self.nmt.send_command(NMT_CMD_CODE["pre-operational"])   # → 127, heartbeat starts
         self.boots += 1
         self._booted_in_reset = True
 

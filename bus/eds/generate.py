@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 from typing import Dict, List
 
-from bus.eds.objects import (DUMMY_UNSIGNED8, ARRAY, INTEGER32, KINDS, RECORD, SOFTWARE_VERSION, VAR, VENDOR_ID,
+from bus.eds.objects import (DUMMY_UNSIGNED8, INTEGER32, KINDS, SOFTWARE_VERSION, VAR, VENDOR_ID,
                              Entry, Kind, Obj)
 
 __all__ = ["render_eds", "write_all", "check_all", "EDS_DIR", "main"]

@@ -38,7 +38,7 @@ the EDS predicts it; a real board answers its own serial).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Dict, List, Optional, Tuple, Union
 
 from bus import protocol as proto
@@ -350,7 +350,7 @@ def _communication_objects(k: Kind) -> List[Obj]:
             "the watchdog times: a silent producer raises EMCY 0x8130"))
     for base, pdos, kind in ((0x1400, k.rpdos, "RPDO"), (0x1800, k.tpdos, "TPDO")):
         for p in pdos:
-            subs = [Entry(1, "COB-ID used by " + kind, UNSIGNED32, "ro", _fmt_cob(p.cob_id),
+            subs = [Entry(1, "COB-ID used by " + kind, UNSIGNED32, "ro", p.cob_id,
                           description=p.frame + (f" ({p.note})" if p.note else "")),
                     Entry(2, "Transmission type", UNSIGNED8, "ro", p.transmission_type,
                           description="0xFE: event-driven, manufacturer-specific")]
@@ -427,10 +427,6 @@ def _diagnostics(k: Kind) -> List[Obj]:
               description="0 POWER_ON, 1 WATCHDOG, 2 SOFTWARE (bus.protocol.ResetCause)"),
         Entry(4, "Uptime", UNSIGNED32, "ro", None, unit="s", description="whole seconds since boot"),
     ], "what today's 8-byte HEARTBEAT carried besides the state")]
-
-
-def _fmt_cob(cob: Union[int, str]) -> Value:
-    return cob if isinstance(cob, str) else cob
 
 
 def _today_cob_id(frame: str, cob_id: int) -> int:
