@@ -35,17 +35,17 @@ from boards.services.application import (ABORT_NO_DATA, ABORT_PARAMETER_INCOMPAT
                                          ABORT_VALUE_INVALID, ABORT_VALUE_TOO_HIGH,
                                          ABORT_VALUE_TOO_LOW, Application)
 from boards.services.emcy import EmcyService
-from boards.services.heartbeat import HeartbeatConsumer, HeartbeatProducer, heartbeat_cob_id
+from boards.services.heartbeat import HeartbeatConsumer, HeartbeatProducer
 from boards.services.network import SimNetwork
 from boards.services.sdo import SimSdoServer
 from bus.eds import load_od
-from bus.eds.objects import KINDS, NMT_CMD_CODE
+from bus.eds.objects import (KINDS, NMT_CMD_CODE, NMT_COB_ID, heartbeat_cob_id, heartbeat_node,
+                             sdo_rx_cob_id, sdo_tx_cob_id)
 from bus.errors import MalformedFrame
 from bus.scheduler import Scheduler
 
 __all__ = ["CanopenDevice", "SimLocalNode", "SimNmtSlave", "NMT_CS", "STATE_CODE"]
 
-NMT_COB_ID = 0x000
 #: NMT command specifiers honoured (CiA 301 §7.2.8.3.1); SLEEP/STANDBY (CiA 320) are not.
 NMT_CS = frozenset(NMT_CMD_CODE.values())
 #: NMT state names (canopen's) → heartbeat state byte.
@@ -85,7 +85,8 @@ class SimLocalNode(LocalNode):
 
     def __init__(self, node_id: int, od: ObjectDictionary, device: "CanopenDevice") -> None:
         super().__init__(node_id, od)
-        self.sdo = SimSdoServer(0x600 + node_id, 0x580 + node_id, self, device._sdo_allowed)
+        self.sdo = SimSdoServer(sdo_rx_cob_id(node_id), sdo_tx_cob_id(node_id), self,
+                               device._sdo_allowed)
         self.nmt = SimNmtSlave(node_id, self, device)
         self.emcy.cob_id = od[0x1014].default
         # canopen registered its NmtSlave.on_write (it would call send_periodic): replace all
@@ -241,8 +242,8 @@ class CanopenDevice:
         """
         if not self.powered:
             return False
-        if can_id == NMT_COB_ID or can_id == self.node.sdo.rx_cobid or (
-                can_id >= 0x700 and can_id - 0x700 in self._consumed):
+        if (can_id == NMT_COB_ID or can_id == self.node.sdo.rx_cobid
+                or heartbeat_node(can_id) in self._consumed):
             self.network.notify(can_id, bytes(data), self.scheduler.now_us * 1e-6)
             return True
         return False
@@ -321,7 +322,7 @@ class CanopenDevice:
     def _on_heartbeat(self, can_id, data, timestamp) -> None:
         if len(data) != 1:
             raise MalformedFrame(f"heartbeat 0x{can_id:03X}", "DLC", "1", len(data))
-        self.consumer.on_heartbeat(can_id - 0x700)
+        self.consumer.on_heartbeat(heartbeat_node(can_id))
 
     def _heartbeat_event(self, node_id: int, lost: bool) -> None:
         if lost:

@@ -12,14 +12,10 @@ from __future__ import annotations
 from typing import Callable, Dict, Optional
 
 from boards.peripherals import Timer
+from bus.eds.objects import heartbeat_cob_id
 from bus.scheduler import PRIO_BACKGROUND, Scheduler
 
-__all__ = ["HeartbeatProducer", "HeartbeatConsumer", "heartbeat_cob_id"]
-
-
-def heartbeat_cob_id(node_id: int) -> int:
-    """NMT error control COB-ID of ``node_id``: 0x700 + node (CiA 301 pre-defined set)."""
-    return 0x700 + int(node_id)
+__all__ = ["HeartbeatProducer", "HeartbeatConsumer"]
 
 
 class HeartbeatProducer:

@@ -46,7 +46,8 @@ from bus import protocol as proto
 __all__ = ["Entry", "Obj", "Kind", "KINDS", "VENDOR_ID", "REVISION", "SOFTWARE_VERSION",
            "EMCY_CODES", "EmcyCode", "serial_number", "cob_id_plan_rows",
            "UNSIGNED8", "UNSIGNED16", "UNSIGNED32", "INTEGER32", "VISIBLE_STRING",
-           "NMT_CMD_CODE", "BOOTUP", "STOP_ALL_COB_ID", "PDO_FRAMES", "frame_fields",
+           "NMT_CMD_CODE", "BOOTUP", "NMT_COB_ID", "sdo_rx_cob_id", "sdo_tx_cob_id",
+           "emcy_cob_id", "heartbeat_cob_id", "heartbeat_node", "STOP_ALL_COB_ID", "PDO_FRAMES", "frame_fields",
            "cob_id_plan_markdown", "objects_markdown", "emcy_markdown"]
 
 # CiA 301 data type codes (canopen.objectdictionary.datatypes uses the same numbers)
@@ -68,6 +69,35 @@ SOFTWARE_VERSION = "schmidt-fil %d.%d.%d" % PROJECT_VERSION
 NMT_CMD_CODE = {"start": 0x01, "stop": 0x02, "pre-operational": 0x80, "reset node": 0x81,
                 "reset communication": 0x82}
 BOOTUP = 0x00
+
+#: CiA 301 pre-defined connection set (the ids every CANopen tool assumes).
+NMT_COB_ID = 0x000
+
+
+def sdo_rx_cob_id(node_id: int) -> int:
+    """SDO client → server (request) COB-ID of ``node_id``: 0x600 + node."""
+    return 0x600 + int(node_id)
+
+
+def sdo_tx_cob_id(node_id: int) -> int:
+    """SDO server → client (response) COB-ID of ``node_id``: 0x580 + node."""
+    return 0x580 + int(node_id)
+
+
+def emcy_cob_id(node_id: int) -> int:
+    """EMCY COB-ID of ``node_id``: 0x080 + node."""
+    return 0x080 + int(node_id)
+
+
+def heartbeat_cob_id(node_id: int) -> int:
+    """NMT error control (heartbeat, boot-up) COB-ID of ``node_id``: 0x700 + node."""
+    return 0x700 + int(node_id)
+
+
+def heartbeat_node(cob_id: int) -> int:
+    """The node id of a heartbeat COB-ID (0 if ``cob_id`` is not in 0x701..0x77F)."""
+    return cob_id - 0x700 if 0x701 <= cob_id <= 0x77F else 0
+
 
 #: STOP_ALL replaces HOST_BROADCAST cmd 3: the host's TPDO1 (0x180 + host node 0x10 = 0x190),
 #: consumed by every board with motion as its RPDO "STOP_ALL" (see docs/canopen.md).
