@@ -72,25 +72,27 @@ def test_pdo_maps_decode_the_paper_frames_like_bus_protocol():
     node.rpdo.read(from_od=True)
     frame = proto.encode_axis_status(mode=5, flags=0b1010, u_q15=-1234, qei_counts=0xABCDEF)
     node.tpdo[1].on_message(0x181, frame, 0.0)
-    got = {v.subindex: v.raw for v in node.tpdo[1].map if v.index == 0x3000}
-    assert got == {1: 0x01, 2: 5, 3: 0b1010, 4: -1234, 5: 0xABCDEF}
+    got = {v.name.split(".")[-1]: v.raw for v in node.tpdo[1].map}
+    assert got == {"device_type": 0x01, "mode": 5, "flags": 0b1010, "u_q15": -1234,
+                   "qei_counts": 0xABCDEF}
     assert node.tpdo[1].cob_id == 0x181 and node.tpdo[2].cob_id == 0x281
     cmd = proto.encode_axis_command(cmd=6, direction=-1, value=-123456)
     node.rpdo[1].on_message(0x201, cmd, 0.0)
-    got = {v.subindex: v.raw for v in node.rpdo[1].map if v.index == 0x3002}
-    assert got == {1: 0x10, 2: 6, 3: -1, 4: -123456}      # byte 0: the host sent it
+    got = {v.name.split(".")[-1]: v.raw for v in node.rpdo[1].map}
+    assert got == {"device_type": 0x10, "cmd": 6, "direction": -1, "reserved_b3": 0,
+                   "value": -123456}                      # byte 0: the host sent it
     assert node.rpdo[2].cob_id == 0x283          # LIMIT from the RA reader's TPDO2
     reader = canopen.RemoteNode(3, load_od("position_reader", 3))
     net.add_node(reader)
     reader.tpdo.read(from_od=True)
     lim = proto.encode_limit(axis=0, flags=3, pos_counts=(1 << 29) - 5)
     reader.tpdo[2].on_message(0x283, lim, 0.0)
-    assert [v.raw for v in reader.tpdo[2].map if v.index == 0x3003] == [0x02, 0, 3, (1 << 29) - 5]
+    assert [v.raw for v in reader.tpdo[2].map] == [0x02, 0, 3, 0, (1 << 29) - 5]
 
 
 @pytest.mark.parametrize("kind", list(KINDS))
 def test_every_pdo_maps_exactly_eight_bytes(kind):
-    """Each mapping (fields + dummy padding) covers the 8 data bytes, byte 0 = device type."""
+    """Each mapping covers the 8 data bytes in order, byte 0 = device type."""
     od = load_od(kind, KINDS[kind].nodes[0])
     for base in (0x1600, 0x1A00):
         for index in range(base, base + 4):

@@ -5,8 +5,9 @@ Usage::
     python -m bus.eds.generate          # rewrite bus/eds/*.eds
     python -m bus.eds.generate --check  # exit 1 (naming the file) if a shipped file differs
 
-The output is deterministic (no dates): FileInfo carries the project version, not a time stamp,
-so a test can compare the shipped files with :func:`render_eds` byte for byte.
+The output is deterministic: FileInfo's dates are the constants ``EDS_DATE``/``EDS_TIME`` of
+:mod:`bus.eds.objects` (the date of the table's last change, not the time of generation), so a
+test can compare the shipped files with :func:`render_eds` byte for byte.
 """
 
 from __future__ import annotations
@@ -16,13 +17,14 @@ import sys
 from pathlib import Path
 from typing import Dict, List
 
-from bus.eds.objects import (DUMMY_UNSIGNED8, INTEGER32, KINDS, SOFTWARE_VERSION, VAR, VENDOR_ID,
+from bus.eds.objects import (EDS_DATE, EDS_TIME, INTEGER32, KINDS, SOFTWARE_VERSION, VAR, VENDOR_ID,
                              Entry, Kind, Obj)
 
 __all__ = ["render_eds", "write_all", "check_all", "EDS_DIR", "main"]
 
 EDS_DIR = Path(__file__).resolve().parent
 _SIGNED = {0x02, 0x03, INTEGER32, 0x10, 0x15}
+_HEX_DIGITS = {0x05: 2, 0x06: 4, 0x16: 6, 0x07: 8}
 _BAUD_RATES_KBIT = (10, 20, 50, 125, 250, 500, 800, 1000)
 _BITRATE_KBIT = 1000        # the paper's bus: 1 Mbit/s
 
@@ -32,7 +34,7 @@ def _value(e: Entry, v) -> str:
         return v
     if e.data_type in _SIGNED:
         return str(int(v))          # negative values in decimal (canopen reads them; CiA 306)
-    return f"0x{int(v):X}"
+    return f"0x{int(v):0{_HEX_DIGITS.get(e.data_type, 1)}X}"   # 0x00050008: as EDS tools expect
 
 
 def _entry_lines(section: str, e: Entry, with_type: bool = True) -> List[str]:
@@ -84,7 +86,10 @@ def render_eds(kind: str) -> str:
     lines = [
         "[FileInfo]", f"FileName={k.name}.eds", "FileVersion=1", "FileRevision=0",
         "EDSVersion=4.0", f"Description={k.product_name} ({k.hardware}), {SOFTWARE_VERSION}",
-        f"CreatedBy=bus/eds/generate.py from bus/eds/objects.py ({SOFTWARE_VERSION})", "",
+        f"CreationTime={EDS_TIME}", f"CreationDate={EDS_DATE}",
+        f"CreatedBy=bus/eds/generate.py from bus/eds/objects.py ({SOFTWARE_VERSION})",
+        f"ModificationTime={EDS_TIME}", f"ModificationDate={EDS_DATE}",
+        "ModifiedBy=bus/eds/generate.py", "",
         "[DeviceInfo]", "VendorName=schmidt-fil", f"VendorNumber=0x{VENDOR_ID:08X}",
         f"ProductName={k.product_name}", f"ProductNumber=0x{k.product_code:08X}",
         f"RevisionNumber=0x{k.object(0x1018).entry(3).default:08X}", "OrderCode=",
@@ -93,10 +98,10 @@ def render_eds(kind: str) -> str:
     lines += ["SimpleBootUpMaster=0", "SimpleBootUpSlave=1", "Granularity=0",
               "DynamicChannelsSupported=0", "GroupMessaging=0",
               f"NrOfRXPDO={len(k.rpdos)}", f"NrOfTXPDO={len(k.tpdos)}", "LSS_Supported=0", "",
-              "[DummyUsage]"] + [f"Dummy{i:04d}={int(i == DUMMY_UNSIGNED8)}" for i in range(1, 8)] + [""]
+              "[DummyUsage]"] + [f"Dummy{i:04d}=0" for i in range(1, 8)] + [""]
     comments = [f"Nodes: {', '.join(str(n) for n in k.nodes)}. Generated; do not edit by hand.",
                 "Objects without DefaultValue are set by the firmware's configuration: read them by SDO.",
-                "PDOs carry the paper's 8-byte frames (byte 0 = device type): see docs/canopen.md."]
+                "PDOs carry the paper's 8-byte frames (byte 0: device type), see docs/canopen.md."]
     lines += ["[Comments]", f"Lines={len(comments)}"]
     lines += [f"Line{i + 1}={c}" for i, c in enumerate(comments)] + [""]
     lines += _list_section("MandatoryObjects", mandatory)

@@ -64,6 +64,9 @@ VENDOR_ID = 0x00000000
 PROJECT_VERSION = (0, 1, 0)
 REVISION = PROJECT_VERSION[0] << 16 | PROJECT_VERSION[1]
 SOFTWARE_VERSION = "schmidt-fil %d.%d.%d" % PROJECT_VERSION
+#: FileInfo dates of the EDS files (CiA 306 format): set them when this table changes.
+EDS_DATE = "11-21-2026"
+EDS_TIME = "12:00PM"
 
 #: NMT command specifiers (CiA 301 §7.2.8.3.1) and the boot-up state byte.
 NMT_CMD_CODE = {"start": 0x01, "stop": 0x02, "pre-operational": 0x80, "reset node": 0x81,
@@ -398,7 +401,6 @@ def _communication_objects(k: Kind) -> List[Obj]:
 PDO_FRAMES = ("AXIS_STATUS", "AXIS_AUX", "AXIS_COMMAND", "LIMIT", "POSITION", "FOCUS_STATUS",
               "FOCUS_COMMAND", "STOP_ALL")
 PROCESS_DATA_BASE = 0x3000
-DUMMY_UNSIGNED8 = 0x0005          # CiA 301 dummy mapping entry (one padding byte)
 _TYPE_BY_BYTES = {(1, False): UNSIGNED8, (2, False): UNSIGNED16, (3, False): UNSIGNED24,
                   (4, False): UNSIGNED32, (1, True): INTEGER8, (2, True): INTEGER16,
                   (3, True): INTEGER24, (4, True): INTEGER32}
@@ -409,7 +411,7 @@ def frame_fields(frame: str) -> List[Tuple[str, int, int, bool]]:
 
     Taken from :data:`bus.protocol.FRAMES` (the one frame table); a field is mapped as the
     smallest whole-byte type holding its bits (the 29-bit pos_counts an UNSIGNED32, the 10-bit
-    ADC counts an UNSIGNED16); unused bytes are dummy entries. STOP_ALL is HOST_BROADCAST's
+    ADC counts an UNSIGNED16). STOP_ALL is HOST_BROADCAST's
     cmd (3) and target node.
     """
     spec = proto.FRAMES["HOST_BROADCAST" if frame == "STOP_ALL" else frame]
@@ -417,30 +419,34 @@ def frame_fields(frame: str) -> List[Tuple[str, int, int, bool]]:
     return [(f.name, f.start_byte, (f.bits + 7) // 8, f.signed) for f in fields]
 
 
+def _layout(frame: str) -> List[Tuple[str, int, bool]]:
+    """(name, bytes, signed) covering data bytes 0..7 in order: device type, fields, and one
+    UNSIGNED8 ``reserved_bN`` per unused byte N (mapped like a field: some EDS tools do not
+    handle CiA dummy entries, e.g. eds-utils 0.3.1 fails on them)."""
+    out = [("device_type", 1, False)]
+    pos = 1
+    for name, start, nbytes, signed in frame_fields(frame):
+        out += [(f"reserved_b{b}", 1, False) for b in range(pos, start)]
+        out.append((name, nbytes, signed))
+        pos = start + nbytes
+    out += [(f"reserved_b{b}", 1, False) for b in range(pos, 8)]
+    return out
+
+
 def _process_data(frame: str, rx: bool) -> Obj:
     access = "rww" if rx else "ro"
-    subs = [Entry(1, "device_type", UNSIGNED8, access, pdo_mapping=True,
-                  description="byte 0: the sender's device type")]
-    for j, (name, start, nbytes, signed) in enumerate(frame_fields(frame)):
-        subs.append(Entry(j + 2, name, _TYPE_BY_BYTES[(nbytes, signed)], access, pdo_mapping=True))
+    subs = [Entry(j + 1, name, _TYPE_BY_BYTES[(nbytes, signed)], access, pdo_mapping=True,
+                  description="byte 0: the sender's device type" if j == 0 else "")
+            for j, (name, nbytes, signed) in enumerate(_layout(frame))]
     return compound(PROCESS_DATA_BASE + PDO_FRAMES.index(frame), frame, RECORD, subs,
                     f"process data of {frame} (bus/protocol.py, bus/schmidt.dbc)")
 
 
 def _mapping(frame: str, base: int, number: int, kind: str) -> Obj:
-    """Static mapping (0x1600/0x1A00 + n − 1) of ``frame``: byte 0, fields, dummy padding."""
+    """Static mapping (0x1600/0x1A00 + n − 1) of ``frame``: all 8 bytes, in order."""
     index = PROCESS_DATA_BASE + PDO_FRAMES.index(frame)
-    entries = [(index << 16) | (1 << 8) | 8]
-    pos = 1
-    for j, (name, start, nbytes, signed) in enumerate(frame_fields(frame)):
-        while pos < start:
-            entries.append((DUMMY_UNSIGNED8 << 16) | 8)
-            pos += 1
-        entries.append((index << 16) | ((j + 2) << 8) | (8 * nbytes))
-        pos = start + nbytes
-    while pos < 8:
-        entries.append((DUMMY_UNSIGNED8 << 16) | 8)
-        pos += 1
+    entries = [(index << 16) | ((j + 1) << 8) | (8 * nbytes)
+               for j, (name, nbytes, signed) in enumerate(_layout(frame))]
     subs = [Entry(i + 1, f"Mapped object {i + 1}", UNSIGNED32, "ro", e)
             for i, e in enumerate(entries)]
     return compound(base + number - 1, f"{kind}{number} mapping parameter", RECORD, subs, frame)
