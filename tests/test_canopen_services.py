@@ -367,3 +367,30 @@ def test_transmit_pdo_refuses_foreign_cob_ids():
     with pytest.raises(ValueError, match="not a TPDO"):
         dev.transmit_pdo(0x181, bytes(8))
     net.close()
+
+
+def test_services_use_no_thread_and_no_wall_clock(monkeypatch):
+    """Boot, SDO, NMT, heartbeats and EMCY run without starting a thread or reading the clock."""
+    import threading
+    import time
+
+    def boom(*a, **k):
+        raise AssertionError("wall clock or thread used in simulated time")
+
+    sch, net = new_network()
+    out = []
+    for name in ("time", "monotonic", "sleep", "perf_counter"):
+        monkeypatch.setattr(time, name, boom)
+    monkeypatch.setattr(threading.Thread, "start", boom)
+    dev = CanopenDevice(sch, "focus_controller", 5, lambda c, d: out.append((c, d)), ParamApp())
+    dev.boot()
+    dev.receive(0x000, bytes((0x01, 0)))
+    dev.receive(0x605, bytes((0x40, 0x08, 0x10, 0, 0, 0, 0, 0)))
+    dev.receive(0x605, bytes((0x60, 0, 0, 0, 0, 0, 0, 0)))
+    dev.emcy.report("STEP_LOSS", 4)
+    sch.run_until(3_000_000)
+    dev.receive(0x000, bytes((0x81, 5)))
+    monkeypatch.undo()
+    assert [c for c, _ in out].count(0x705) == 5            # 2 boot-ups + 3 heartbeats
+    assert dev.transmit_pdo(0x185, bytes(8)) is False        # PRE-OPERATIONAL after the reset
+    net.close()
