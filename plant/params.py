@@ -233,6 +233,9 @@ class AxisParameters:
         Sub-sections.
     effects : tuple of dict
         Effect specs ``{kind, **params}`` (built by :func:`plant.effects.build_effect`).
+    gear_disturbance : dict
+        Gear-train torque lines ``{line: {amplitude_nm, phase…_rad}}``, validated by
+        :func:`plant.gear_train_disturbance.parse_section` (empty when the file has no section).
     perfect : bool
         Copy of the file's top-level ``perfect`` switch.
     """
@@ -248,6 +251,7 @@ class AxisParameters:
     encoders: EncoderParameters
     effects: tuple = ()
     perfect: bool = False
+    gear_disturbance: dict = field(default_factory=dict)
 
     @property
     def reflected_motor_inertia_kg_m2(self) -> float:
@@ -549,6 +553,16 @@ def _effects(node: dict, path: str) -> tuple:
     return tuple(out)
 
 
+def _gear_disturbance(node: dict, path: str) -> dict:
+    # issue 9 hook: the section's schema lives in plant/gear_train_disturbance.py
+    from plant.gear_train_disturbance import parse_section
+
+    try:
+        return parse_section(node.get("gear_disturbance"), f"{path}.gear_disturbance")
+    except ValueError as exc:
+        raise ParameterError(str(exc)) from None
+
+
 def _axis(node: Any, name: str, perfect: bool) -> AxisParameters:
     path = f"axes.{name}"
     r = _Reader(node, path)
@@ -564,8 +578,9 @@ def _axis(node: Any, name: str, perfect: bool) -> AxisParameters:
         encoders=_encoders(r.section("encoders")),
         effects=_effects(node, path),
         perfect=perfect,
+        gear_disturbance=_gear_disturbance(node, path),
     )
-    r.used.add("effects")
+    r.used.update(("effects", "gear_disturbance"))
     r.done()
     return a
 
