@@ -53,6 +53,7 @@ class _Recorder:
             current_a_a=d["ia"].astype(float),
             current_b_a=d["ib"].astype(float),
             truth_angle_rad=d["truth"].astype(float),
+            tick_rate_arcsec_s=d["tick_rate"].astype(float),
         )
 
 
@@ -133,6 +134,7 @@ def run_scenario(
                 ia=st.current_a_a,
                 ib=st.current_b_a,
                 truth=plant.axis_angle_rad,
+                tick_rate=st.rate_arcsec_s,  # firmware's last per-tick rate (AXIS_AUX qei_delta)
             )
         n_samples[0] += 1
         if logs is not None and n_samples[0] % sensor_every == 0:
