@@ -98,7 +98,8 @@ def window_10ms_metrics(t_s: np.ndarray, pos_arcsec: np.ndarray, setpoint_arcsec
 def spectral_lines(err_pct: np.ndarray, dt_s: float, max_lines: int = 3) -> list[dict]:
     """Strongest spectral lines of an error series.
 
-    A line is a local maximum of the Hann-windowed amplitude spectrum at least
+    The amplitude is the Hann-weighted DFT evaluated at the line's interpolated frequency (so a
+    line between two bins is not underestimated). A line is a local maximum of the Hann-windowed amplitude spectrum at least
     :data:`LINE_OVER_FLOOR` times the median amplitude (the floor) and at least
     :data:`MIN_LINE_PCT` peak. The DC bin and its neighbour are skipped.
 
@@ -132,7 +133,10 @@ def spectral_lines(err_pct: np.ndarray, dt_s: float, max_lines: int = 3) -> list
         y0, y1, y2 = spec[k - 1], a, spec[k + 1]
         den = y0 - 2 * y1 + y2
         d = 0.5 * (y0 - y2) / den if den != 0 else 0.0
-        out.append({"frequency_hz": round(float((k + d) / (n * dt_s)), 4), "amplitude_pct": round(float(a), 3)})
+        fk = (k + d) / (n * dt_s)
+        # amplitude from a Hann-weighted DFT at the interpolated frequency (no scalloping loss)
+        amp = 2.0 * abs(np.sum(w * (e - e.mean()) * np.exp(-2j * np.pi * fk * dt_s * np.arange(n)))) / w.sum()
+        out.append({"frequency_hz": round(float(fk), 4), "amplitude_pct": round(float(amp), 3)})
     out.sort(key=lambda x: -x["amplitude_pct"])
     return out[:max_lines]
 

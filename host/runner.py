@@ -241,6 +241,7 @@ def run_scenario(
         "segments": segments,
         "controller": tel.controller_summary(),
         "plant": tel.plant_summary(),
+        "gear_lines": {axis: p.gear_lines for axis, p in tel.plants.items()},  # issue 9: lines that ran
         "bus_stats": tel.bus_stats(),
         "boards": tel.board_summary(),
         "rs232": tel.rs232_summary(),

@@ -43,7 +43,7 @@ from __future__ import annotations
 import math
 
 from plant import kernel
-from plant.gear_train_disturbance import lines_table
+from plant.gear_train_disturbance import line_rows, lines_table
 from plant.friction import LuGre, lugre_from_parameters
 from plant.params import AxisParameters
 
@@ -136,7 +136,10 @@ class AxisPlant:
         self._enc_err_rad = 0.0 if self.perfect else enc.incremental_error_arcsec / ARCSEC_PER_RAD
         self._abs_counts = 1 << enc.absolute_bits
         # gear-train torque lines (plant/gear_train_disturbance.py); empty table = none
-        self._lines = lines_table(None if self.perfect else params.gear_disturbance)
+        gd = None if self.perfect else params.gear_disturbance
+        self._lines = lines_table(gd)
+        #: The gear-train torque lines this plant runs with (plant/gear_train_disturbance.py), one dict per line.
+        self.gear_lines = line_rows(gd)
         self._p = kernel.pack_parameters(
             n=self._n, jm=self._jm, cm=self._cm, k=self._k, kt=self._kt, ct=self._ct, hb=self._hb,
             j=self._j, r=self._r, l=self._l, vs=self._vs, friction=self.friction,

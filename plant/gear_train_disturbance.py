@@ -63,6 +63,7 @@ __all__ = [
     "line_orders",
     "parse_section",
     "lines_table",
+    "line_rows",
     "line_frequency_hz",
     "SOURCE_AXIS",
     "SOURCE_TRAIN_A",
@@ -193,6 +194,31 @@ def parse_section(node: Mapping | None, path: str) -> dict:
     return out
 
 
+def line_rows(section: Mapping | None) -> list[dict]:
+    """The lines of non-zero amplitude, one dict per row of :func:`lines_table` (same order).
+
+    Returns
+    -------
+    list of dict
+        ``line``, ``follows`` (``"axis"``, ``"train_a"``, ``"train_b"``), ``order``,
+        ``amplitude_nm``, ``phase_rad``.
+    """
+    rows = []
+    for name, v in (section or {}).items():
+        a = float(v["amplitude_nm"])
+        if a == 0.0:
+            continue
+        order = LINE_ORDERS[name]
+        if name in AXIS_LINES:
+            rows.append({"line": name, "follows": "axis", "order": order, "amplitude_nm": a,
+                         "phase_rad": float(v["phase_rad"])})
+        else:
+            for train in ("a", "b"):
+                rows.append({"line": name, "follows": f"train_{train}", "order": order, "amplitude_nm": a,
+                             "phase_rad": float(v[f"phase_{train}_rad"])})
+    return rows
+
+
 def lines_table(section: Mapping | None) -> np.ndarray:
     """The kernel's line table for one axis: one row per line of non-zero amplitude.
 
@@ -208,15 +234,6 @@ def lines_table(section: Mapping | None) -> np.ndarray:
         :data:`SOURCE_TRAIN_B`), order [cycles per axis rev], amplitude [N·m at the axis], phase
         [rad]. Empty (shape (0, 4)) when every amplitude is 0.
     """
-    rows = []
-    for name, v in (section or {}).items():
-        a = float(v["amplitude_nm"])
-        if a == 0.0:
-            continue
-        order = LINE_ORDERS[name]
-        if name in AXIS_LINES:
-            rows.append((SOURCE_AXIS, order, a, float(v["phase_rad"])))
-        else:
-            rows.append((SOURCE_TRAIN_A, order, a, float(v["phase_a_rad"])))
-            rows.append((SOURCE_TRAIN_B, order, a, float(v["phase_b_rad"])))
+    code = {"axis": SOURCE_AXIS, "train_a": SOURCE_TRAIN_A, "train_b": SOURCE_TRAIN_B}
+    rows = [(code[r["follows"]], r["order"], r["amplitude_nm"], r["phase_rad"]) for r in line_rows(section)]
     return np.ascontiguousarray(np.array(rows, dtype=np.float64).reshape(-1, 4))
