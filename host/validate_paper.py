@@ -58,6 +58,8 @@ RUNS = {
     "tracking-high": (SCEN / "tracking-high-preload.yaml", {}, "Fig. 13a tracking, high preload"),
     "tracking-high-sigma0-1e9": (SCEN / "tracking-high-preload.yaml", {"axes.ra.friction.sigma0_nm_rad": 1.0e9},
                                  "sensitivity: σ0 = 1e9 instead of the assumed 1e8"),
+    "tracking-low-sigma0-1e9": (SCEN / "tracking-low-preload.yaml", {"axes.ra.friction.sigma0_nm_rad": 1.0e9},
+                                "sensitivity: σ0 = 1e9 at reduced preload"),
 }
 
 ROW_FIELDS = ("figure", "paper", "emulator", "metric", "agrees", "cause", "role", "scenario", "segment",
@@ -180,10 +182,10 @@ def build_rows(reports: dict) -> list[dict]:
         mean = ", ".join(f"{s['mean_rate_arcsec_s']:g}″/s" for s in ss)
         cur = max(s["peak_current_a"] for s in ss)
         over = max(s["time_over_rating_s"] for s in ss)
-        cause = (f"holds the rate (mean {mean}); the mesh line at "
-                 f"{_f(ss[0]['setpoint_arcsec_s'] * 9733.19 / 1.296e6, 1)} Hz is filtered by the axis inertia. "
+        nm = max(nomesh[g] for g in segs)
+        cause = (f"holds the rate (mean {mean}); without the mesh line {_f(nm)} %. "
                  f"Peak current {cur:.2f} A, {over:.1f} s over the 6 A rating"
-                 + (" (the paper's motors are rated 6 A continuous: at this speed the assumed K, R need more)"
+                 + (" (the paper's motors are rated 6 A continuous: with the assumed K, R this speed needs more)"
                     if over > 0 else ""))
         if not ok:
             cause = f"disagrees: mean {mean}, {cur:.2f} A; " + ("the axis saturates" if any(
@@ -203,6 +205,7 @@ def build_rows(reports: dict) -> list[dict]:
         if ok else "disagrees", "tracking-low", "track", lo["peak_current_a"]))
     hi = _seg(reports, "tracking-high", "track")
     s9 = _seg(reports, "tracking-high-sigma0-1e9", "track")
+    l9 = _seg(reports, "tracking-low-sigma0-1e9", "track")
     xh = hi["peak_error_tick_pct"]
     ok = bool(hi["limit_cycle"]) and xh is not None and x is not None and xh >= 2.0 * x
     rows.append(_Row("Fig. 13a (§4)", "tracking 15″/s, high preload: limit cycles, much larger peak errors than 13b",
@@ -213,9 +216,11 @@ def build_rows(reports: dict) -> list[dict]:
         ("" if ok else "disagrees: ") + f"depends on the assumed σ0: with σ0 = 1e9 (sensitivity run) "
         f"{_f(s9['peak_error_tick_pct'])} % per tick, {'limit cycle' if s9['limit_cycle'] else 'no limit cycle'}"
         + (f" ({s9['limit_cycle_period_s']} s)" if s9.get("limit_cycle_period_s") else "")
-        + f", {s9['stuck_fraction'] * 100:.0f} % stuck; with σ0 = 1e8 the bristle time constant keeps the loop in "
-        f"the smooth branch. Holding 15″/s at high preload needs {hi['peak_current_a']:.1f} A, over the 6 A rating "
-        f"with the assumed K = 0.35 N·m/A", "tracking-high", "track", hi["peak_current_a"]))
+        + f", {s9['stuck_fraction'] * 100:.0f} % stuck — but the same σ0 at reduced preload gives "
+        f"{_f(l9['peak_error_tick_pct'])} % per tick ({'limit cycle' if l9['limit_cycle'] else 'no limit cycle'}), "
+        f"breaking Fig. 13b: no single σ0 gives both figures with this model, so the assumed 1e8 stays. Holding "
+        f"15″/s at high preload needs {hi['peak_current_a']:.1f} A, over the 6 A rating with the assumed "
+        f"K = 0.35 N·m/A", "tracking-high", "track", hi["peak_current_a"]))
     # ---------------------------------------------------------------- open loop, low speed
     ss = [_seg(reports, "open-loop", g) for g in ("ol50", "ol15")]
     held = [abs(s["mean_error_pct"]) <= 25.0 for s in ss]
@@ -223,8 +228,11 @@ def build_rows(reports: dict) -> list[dict]:
     desc = "; ".join(f"{s['name']}: mean {s['mean_rate_arcsec_s']:g}″/s" for s in ss)
     rows.append(_Row("§4, §6", "open loop cannot hold speeds below 100″/s",
                      "|mean rate error| > 25 % at 50 and 15″/s").make(
-        desc, ok, "below ω_s the static friction curve falls with speed: no stable open-loop operating point; "
-                  "the axis runs away to the viscous branch or stops" if ok else "disagrees: an open-loop speed below 100″/s was held",
+        desc, ok, ("below ω_s the static friction curve falls with speed, so the duty that balances friction at "
+                   "the target exceeds the friction on the viscous branch: no stable open-loop operating point; "
+                   "the axis " + " and ".join(("runs away" if s["mean_rate_arcsec_s"] > s["setpoint_arcsec_s"] else "stops")
+                                              + f" at {s['name']}" for s in ss))
+        if ok else "disagrees: an open-loop speed below 100″/s was held",
         "open-loop", "ol50/ol15", max(s["peak_current_a"] for s in ss)))
     s = _seg(reports, "fig7a", "ol100")
     held = abs(s["mean_error_pct"]) <= 25.0
