@@ -301,10 +301,13 @@ def _markdown(rows: list[dict], reports: dict, params, scale: float) -> str:
           "figures are given beside it. Criteria were fixed before running (host/validate_paper.py).", "",
           "## Table", "",
           "| figure | paper | emulator | metric | agrees | cause |", "|---|---|---|---|---|---|"]
+    def cell(x):  # a "|" inside a cell would split the table
+        return str(x).replace("|", "\\|")
+
     for r in rows:
         ag = {True: "**yes**", False: "**no**", None: f"– ({r['role']})"}[r["agrees"]]
-        L.append(f"| {r['figure']} | {r['paper']} | {r['emulator']} (`{r['scenario']}: {r['segment']}`) | "
-                 f"`{r['metric']}` | {ag} | {r['cause']} |")
+        L.append(f"| {cell(r['figure'])} | {cell(r['paper'])} | {cell(r['emulator'])} (`{r['scenario']}: {r['segment']}`) | "
+                 f"`{cell(r['metric'])}` | {ag} | {cell(r['cause'])} |")
     L += ["", "## Motor currents against the 6 A rating (§3.2)", "",
           "| run | segment | peak current (A) | s over 6 A |", "|---|---|---:|---:|"]
     for name, rep in reports.items():
