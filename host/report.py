@@ -6,9 +6,10 @@ How velocity and errors are measured (this text is also written into every repor
   ``AXIS_STATUS`` frame (every 10 ms), unwrapped by the host, differenced over non-overlapping
   windows of ``velocity_window_ms`` (default 100 ms) and scaled by 0.01148 arcsec/count
   (4.608e6 counts/rev through the 1:24.5 roller, paper §2.2/§3.2). One count per 100 ms is
-  0.115 arcsec/s, 0.77 % of the 15 arcsec/s tracking rate: that is the resolution floor of every
-  percentage in the report. A per-tick (5 ms) rate would have a 2.3 arcsec/s step (15 % of
-  sidereal), which is why the report does not use it.
+  0.115 arcsec/s, 0.77 % of the 15 arcsec/s tracking rate: that is the resolution floor of the
+  100 ms percentages. The per-tick (5 ms) rate has a 2.3 arcsec/s step (15 % of sidereal); it is
+  reported beside them (below) because it is what the firmware and, most likely, the paper's
+  figures use.
 * **Settling**: the first ``settle_s`` seconds of each segment are excluded.
 * **peak_error_pct** = max |v − v_sp| / |v_sp| × 100 over the windows; **rms_error_pct** =
   sqrt(mean((v − v_sp)²)) / |v_sp| × 100; **mean_error_pct** is the signed bias.

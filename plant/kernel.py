@@ -26,6 +26,12 @@ additive load torque of the previous midpoint [N·m].
 
 parameters ``P`` (22), built by :func:`pack_parameters`: see there.
 
+gear lines ``G``: float64 array of shape (n, 4) from
+:func:`plant.gear_train_disturbance.lines_table` (source, order, amplitude, phase), evaluated by
+:func:`gear_lines_torque_nm` at each substep's midpoint and added to the load by
+:func:`twin_run_lines` / :func:`rigid_run_lines`. :func:`twin_run` / :func:`rigid_run` pass an
+empty table, so their numbers are those of the kernel before the lines existed.
+
 Nothing here reads the clock, sleeps or keeps state between calls.
 """
 
