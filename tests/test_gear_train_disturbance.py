@@ -147,3 +147,16 @@ def test_line_table_rows():
     assert kernel.gear_lines_torque_nm(0.5, 0.6, 0.7, G) == pytest.approx(
         2.0 * math.sin(LINE_ORDERS["stage1_mesh"] * 0.6 + 0.1) + 2.0 * math.sin(LINE_ORDERS["stage1_mesh"] * 0.7 + 0.2)
         + 3.0 * math.sin(2.0 * 0.5 + 0.3))
+
+
+def test_dump_round_trip_keeps_the_lines(tmp_path):
+    """dump_parameters writes the gear lines back (values, units, sources) and they reload equal."""
+    from plant.params import dump_parameters
+
+    p = load_parameters(overrides={"axes.dec.gear_disturbance.motor_twice.phase_b_rad": 0.3})
+    dump_parameters(p, tmp_path / "d.yaml")
+    q = load_parameters(tmp_path / "d.yaml")
+    assert q.axes["ra"].gear_disturbance == p.axes["ra"].gear_disturbance
+    assert q.axes["dec"].gear_disturbance["motor_twice"]["phase_b_rad"] == 0.3
+    assert q.tree["axes"]["ra"]["gear_disturbance"]["stage1_mesh"]["amplitude_nm"]["source"] == \
+        p.tree["axes"]["ra"]["gear_disturbance"]["stage1_mesh"]["amplitude_nm"]["source"]
