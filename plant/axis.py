@@ -138,6 +138,8 @@ class AxisPlant:
         # gear-train torque lines (plant/gear_train_disturbance.py); empty table = none
         gd = None if self.perfect else params.gear_disturbance
         self._lines = lines_table(gd)
+        # interpreted kernel: plain tuples index ≈ 10x faster than numpy elements (same numbers)
+        self._lines_k = self._lines if kernel.JIT else tuple(tuple(float(v) for v in r) for r in self._lines)
         #: The gear-train torque lines this plant runs with (plant/gear_train_disturbance.py), one dict per line.
         self.gear_lines = line_rows(gd)
         self._p = kernel.pack_parameters(
@@ -247,7 +249,7 @@ class AxisPlant:
             out = self._run_with_effects(now, t_us)
         elif self._lines.shape[0]:
             run = kernel.rigid_run_lines if self.rigid else kernel.twin_run_lines
-            out = run(self.state_tuple(), self._p, self._lines, self.duty_a, self.duty_b, t_us - now,
+            out = run(self.state_tuple(), self._p, self._lines_k, self.duty_a, self.duty_b, t_us - now,
                       self.max_substep_us)
         else:
             run = kernel.rigid_run if self.rigid else kernel.twin_run
@@ -270,7 +272,8 @@ class AxisPlant:
         midpoint, finish = ((kernel.rigid_midpoint, kernel.rigid_finish) if self.rigid
                             else (kernel.twin_midpoint, kernel.twin_finish))
         P = self._p
-        lines = self._lines
+        lines = self._lines_k
+        lines_n = len(lines)
         rl = P[9]
         rated = self._rated
         X = self.state_tuple()
@@ -288,7 +291,7 @@ class AxisPlant:
             load = 0.0
             for e in self._additive:
                 load += e.torque_nm(M[0], M[1], t_mid_s)
-            if lines.shape[0]:
+            if lines_n:
                 if self.rigid:
                     load += kernel.gear_lines_torque_nm(M[0], M[0], M[0], lines)
                 else:

@@ -148,7 +148,7 @@ def gear_lines_torque_nm(th_rad, ang_a_rad, ang_b_rad, G):
         Axis angle [rad].
     ang_a_rad, ang_b_rad : float
         Motor angles of trains A and B reflected to the axis, φk / N [rad].
-    G : ndarray, shape (n, 4)
+    G : ndarray, shape (n, 4), or a tuple of n 4-tuples (interpreted use)
         :func:`plant.gear_train_disturbance.lines_table`: source (0 axis, 1 train A, 2 train B),
         order [cycles per axis rev], amplitude [N·m], phase [rad]. n = 0 gives exactly 0.0.
 
@@ -158,10 +158,11 @@ def gear_lines_torque_nm(th_rad, ang_a_rad, ang_b_rad, G):
         Σ A sin(order · angle + phase).
     """
     t = 0.0
-    for i in range(G.shape[0]):
-        src = G[i, 0]
+    for i in range(len(G)):
+        row = G[i]  # row-wise indexing: fast on a tuple of tuples when interpreted, a view when compiled
+        src = row[0]
         ang = th_rad if src == 0.0 else (ang_a_rad if src == 1.0 else ang_b_rad)
-        t += G[i, 2] * math.sin(G[i, 1] * ang + G[i, 3])
+        t += row[2] * math.sin(row[1] * ang + row[3])
     return t
 
 
@@ -341,7 +342,7 @@ def _run(rigid, X, P, G, duty_a, duty_b, span_us, max_substep_us):
     """
     rl = P[9]
     n_inv = P[0]
-    n_lines = G.shape[0]
+    n_lines = len(G)
     load = 0.0
     rated = P[21]
     ta = tb = ff = 0.0
