@@ -197,6 +197,9 @@ class UhidGateway:
         end_us = None if duration_s is None else t0_sim + int(duration_s * 1e6)
         ready_sent = False
         while not should_stop() and (end_us is None or sched.now_us < end_us):
+            if self.started and not ready_sent and on_ready is not None:
+                on_ready()
+                ready_sent = True
             target = t0_sim + int((time.monotonic() - t0_wall) * 1e6) // FRAME_PERIOD_US * FRAME_PERIOD_US
             if target > sched.now_us:
                 late = target - sched.now_us - FRAME_PERIOD_US
@@ -207,9 +210,6 @@ class UhidGateway:
                 sched.run_until(sched.now_us + FRAME_PERIOD_US)
                 self.handle_events()
                 continue
-            if self.started and not ready_sent and on_ready is not None:
-                on_ready()
-                ready_sent = True
             wait = (t0_wall + (sched.now_us - t0_sim + FRAME_PERIOD_US) / 1e6) - time.monotonic()
             select.select([self.uhid.fd], [], [], max(0.0, wait))
             self.handle_events()
