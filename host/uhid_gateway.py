@@ -139,7 +139,6 @@ class UhidGateway:
     """
 
     def __init__(self, telescope, uhid: Uhid) -> None:
-        import can  # noqa: F401  (python-can registers the schmidt-sim interface through bus)
         from bus.simbus import SimBus
 
         if telescope.network is None:
@@ -261,6 +260,8 @@ def main(argv=None) -> int:
         signal.signal(sig, lambda *_: stop.update(flag=True))
     tel = build_network(sc, host_cls=BusMonitor)
     gw = UhidGateway(tel, uhid)
+    print(f"{prog}: boards built, UHID_CREATE2 sent; waiting for the kernel to start the device",
+          file=sys.stderr, flush=True)
 
     def ready():
         print(f"{prog}: {VENDOR_ID:04x}:{PRODUCT_ID:04x} '{PRODUCT}' up; boards "
