@@ -7,8 +7,9 @@ and creates a HID device with ``/dev/uhid`` (``UHID_CREATE2``: USB bus, the gate
 product id, its report descriptor). The kernel's hid-generic driver binds it and makes a
 ``/dev/hidrawN``; an unmodified program using hidapi (hidraw backend) or raw hidraw opens it as
 it would open the real board (docs/usb-gateway.md). Simulated time is paced to the wall clock
-in 1 ms USB frames; when the process falls behind it runs the frames back to back (never skips)
-and reports how far behind it was.
+in 1 ms USB frames; when the process falls behind it runs the frames back to back (never skips;
+uhid events are answered every 10 ms of simulated time meanwhile) and reports how far behind it
+was.
 
 Translation between uhid events and the simulated USB host (:class:`bus.usb_link.UsbHostPort`):
 
@@ -54,6 +55,10 @@ BUS_USB = 0x03
 _CREATE2 = struct.Struct("<I128s64s64sHHIIII4096s")
 #: sizeof(struct uhid_event): the type plus the largest member (uhid_create2_req)
 EVENT_SIZE = _CREATE2.size
+#: Longest stretch of simulated time run without answering uhid events while catching up, µs
+#: (assumed: 10 ms, ten USB frames: fewer event checks while behind; on time the bridge steps
+#: single 1 ms frames).
+CATCHUP_CHUNK_US = 10_000
 EVENT_NAMES = {UHID_START: "START", UHID_STOP: "STOP", UHID_OPEN: "OPEN", UHID_CLOSE: "CLOSE",
                UHID_OUTPUT: "OUTPUT", UHID_GET_REPORT: "GET_REPORT", UHID_SET_REPORT: "SET_REPORT"}
 
@@ -205,8 +210,8 @@ class UhidGateway:
                 if late > 0:
                     self.frames_late += 1
                     self.max_late_us = max(self.max_late_us, late)
-                # one frame at a time, so uhid events are answered between frames even when late
-                sched.run_until(sched.now_us + FRAME_PERIOD_US)
+                # catch up in chunks of at most CATCHUP_CHUNK_US, answering uhid events between
+                sched.run_until(min(target, sched.now_us + CATCHUP_CHUNK_US))
                 self.handle_events()
                 continue
             wait = (t0_wall + (sched.now_us - t0_sim + FRAME_PERIOD_US) / 1e6) - time.monotonic()
