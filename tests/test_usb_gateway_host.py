@@ -38,7 +38,8 @@ def test_health_check_and_tracking_through_the_gateway(tel):
     """HostClient over HID: the five boards answer the power-on PING; TRACK reaches the RA axis
     and its status frames come back through IN reports."""
     t, gw, bus = tel
-    client = HostClient(bus=bus, scheduler=t.scheduler, preset_rates_arcsec_s=t.client.preset_rates_arcsec_s)
+    client = HostClient(bus=bus, scheduler=t.scheduler, preset_rates_arcsec_s=t.client.preset_rates_arcsec_s,
+                        arcsec_per_count=t.client.arcsec_per_count)
     health = client.power_on()
     assert health.ok, health.missing
     assert set(health.answered) == {"ra-axis", "dec-axis", "ra-reader", "dec-reader", "focus"}
