@@ -75,13 +75,18 @@ class UsbGateway:
     usb : UsbHidInterface, optional
         The USB interface peripheral (default a new one); connect a
         :class:`bus.usb_link.UsbHostPort` to it.
+    serial_port : None
+        Accepted for the board registry's uniform constructor call; the gateway has no RS232
+        telemetry (ValueError otherwise).
     """
 
     KIND = "usb-gateway"
 
-    def __init__(self, scheduler: Scheduler, bus: can.BusABC, *, node_id: int = proto.NodeId.HOST,
+    def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int = proto.NodeId.HOST, *,
                  name: str = "usb-gateway", rx_queue_frames: int = RX_QUEUE_FRAMES,
-                 usb: Optional[UsbHidInterface] = None) -> None:
+                 usb: Optional[UsbHidInterface] = None, serial_port=None) -> None:
+        if serial_port is not None:
+            raise ValueError("the USB gateway has no RS232 telemetry port (serial_port must be None)")
         if int(rx_queue_frames) < 1:
             raise ValueError(f"rx_queue_frames must be >= 1, got {rx_queue_frames}")
         self.scheduler = scheduler
