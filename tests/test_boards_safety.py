@@ -223,6 +223,8 @@ def test_zero_gains_cannot_be_set_so_the_limit_still_stops_a_slew():
     tel, host = telescope_at(88.0)
     try:
         send(host, p.AxisCommand.SLEW, +1)
+        tel.scheduler.run_until(1_500_000)                  # at slew rate, ≈ 91°
+        assert tel.plants["ra"].axis_rate_rad_s * 206265 > 7000
         send(host, p.AxisCommand.SET_KP, 1, 0)
         send(host, p.AxisCommand.SET_KI, 1, 0)
         assert run_max_angle(tel, 8_000_000) < 95.0
