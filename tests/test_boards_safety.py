@@ -248,3 +248,26 @@ def test_reader_power_loss_stops_the_slew_and_refuses_motion():
         assert ax.mode == AxisMode.STOP and ax.refused_commands >= 1
     finally:
         tel.close()
+
+
+def test_reader_reporting_invalid_stops_the_axis_and_the_fault_clears_later():
+    """POSITION flag 'invalid' while slewing: braking stop, FAULT READER_LOST 2; valid frames
+    again: FAULT_CLEARED (detail 9) once the condition has been gone for 1 s."""
+    s, bus, plant, ax = make()
+    valid = [True]
+
+    def position(now):
+        flags = 0 if valid[0] else p.PositionFlags.INVALID
+        bus.inject(p.position_cob_id(3), p.encode_position(flags, 0, 0))
+    s.call_every(10_000, position)
+    command(bus, p.AxisCommand.SLEW)
+    s.run_until(1_000_000)
+    valid[0] = False
+    s.run_until(2_000_000)
+    assert ax.mode == AxisMode.STOP and abs(plant.omega) < 50.0 and ax.reader_lost == 2
+    valid[0] = True
+    s.run_until(3_500_000)
+    got = [(f.code, f.detail) for f in faults(bus)]
+    assert got == [(p.FaultCode.READER_LOST, 2), (p.FaultCode.FAULT_CLEARED, p.FaultCode.READER_LOST)]
+    command(bus, p.AxisCommand.SLEW)
+    assert ax.mode == AxisMode.SLEW
