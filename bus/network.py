@@ -819,8 +819,14 @@ class CanNetwork:
         return es
 
     def error_counters(self) -> dict:
-        """Per-node fault-confinement counters {node name: NodeErrorState.as_dict()}."""
-        return {es.name: es.as_dict() for es in self._errors.values()}
+        """Per-node fault-confinement counters {node name: NodeErrorState.as_dict()}, in attach
+        order; a name used by several buses gets ``#k`` (k = attach index) appended."""
+        out = {}
+        names = [es.name for es in self._errors.values()]
+        for k, es in enumerate(self._errors.values()):
+            key = es.name if names.count(es.name) == 1 else f"{es.name}#{k}"
+            out[key] = es.as_dict()
+        return out
 
     def add_tap(self, fn) -> None:
         """Call ``fn(msg)`` with every frame at the end of its transmission (a bus monitor,
