@@ -16,12 +16,17 @@ boards' own identifiers and layouts with extreme or boundary values (gains 0 and
 rates beyond slew, duties beyond ±1, focus targets beyond travel, spoofed LIMIT frames,
 broadcast RESET/STOP_ALL, wrong DLC or device type).
 
-Every ``stop_every`` frames the fuzzer sends HOST_BROADCAST STOP_ALL and measures, on the plant
+The fuzzer commands SLEW toward the high limits at the start of each block of ``stop_every``
+frames and leaves AXIS_COMMAND out of the adversarial mix for the first half of the block, so
+the axes run into their soft limits under all other traffic (spoofed LIMIT and POSITION frames,
+broadcasts, focus commands, random identifiers). Every ``stop_every`` frames the fuzzer sends HOST_BROADCAST STOP_ALL and measures, on the plant
 (not on what the firmware reports), the time until both axes are below
 ``STANDSTILL_ARCSEC_S``; fuzzing resumes after that. Reported: frames sent, exceptions raised by
 the emulator (must be 0), non-finite values seen in the plants' states and the boards' control
 variables (must be 0), the largest soft-limit overshoot per axis (plant angle beyond the
-reader's limit), and the longest STOP-to-standstill time.
+reader's limit) and the highest angle reached, the longest STOP-to-standstill time, and the
+FAULT frames seen on the wire by code (cumulative; the boards' own counters restart at each
+reset the fuzzer causes).
 """
 
 from __future__ import annotations
@@ -69,6 +74,9 @@ class FrameGenerator:
                   P.focus_command_cob_id(), P.limit_cob_id(3), P.limit_cob_id(4),
                   P.position_cob_id(3), P.position_cob_id(4), P.heartbeat_cob_id(0x10))
 
+    _NO_AXIS_CMD = tuple(i for i in TARGET_IDS
+                         if i not in (P.axis_command_cob_id(1), P.axis_command_cob_id(2)))
+
     def __init__(self, seed: int = 0, bus_fraction: float = 0.3) -> None:
         self.rng = random.Random(seed)
         self.bus_fraction = bus_fraction
@@ -82,18 +90,18 @@ class FrameGenerator:
             return r.randint(-(1 << 31), (1 << 31) - 1)
         return r.randint(-20_000_000, 20_000_000)
 
-    def _adversarial(self) -> can.Message:
+    def _adversarial(self, axis_commands: bool = True) -> can.Message:
         r = self.rng
-        aid = r.choice(self.TARGET_IDS)
+        aid = r.choice(self.TARGET_IDS if axis_commands else self._NO_AXIS_CMD)
         b = bytearray(8)
         b[0] = r.choice((1, 2, 3, 0x10, r.randint(0, 255)))
         if aid in (P.axis_command_cob_id(1), P.axis_command_cob_id(2)):
-            b[0] = 1 if r.random() < 0.9 else b[0]
+            b[0] = 0x10 if r.random() < 0.9 else b[0]        # commands come from the host
             b[1] = r.randint(0, 12)
             b[2] = r.choice((1, 0xFF, 0, 0x7F, 0x80))
             b[4:8] = (self._value() & 0xFFFFFFFF).to_bytes(4, "little")
         elif aid == P.focus_command_cob_id():
-            b[0] = 3 if r.random() < 0.9 else b[0]
+            b[0] = 0x10 if r.random() < 0.9 else b[0]
             b[1] = r.randint(0, 6)
             b[4:8] = (self._value() & 0xFFFFFFFF).to_bytes(4, "little")
         elif aid == P.host_broadcast_cob_id():
@@ -107,17 +115,19 @@ class FrameGenerator:
             b[1] = r.randint(0, 2)
             b[2] = r.randint(0, 8)
             b[4:8] = r.randint(0, (1 << 32) - 1).to_bytes(4, "little")
-        else:
+        else:   # POSITION spoofs and host heartbeats
+            b[0] = r.choice((2, 0x10, b[0]))
             b[1:8] = bytes(r.randint(0, 255) for _ in range(7))
         dlc = 8 if r.random() < 0.9 else r.randint(0, 8)
         return can.Message(arbitration_id=aid, data=bytes(b[:dlc]), is_extended_id=False)
 
-    def next(self) -> tuple[can.Message, bool]:
-        """The next frame and whether it goes over the bus."""
+    def next(self, axis_commands: bool = True) -> tuple[can.Message, bool]:
+        """The next frame and whether it goes over the bus (``axis_commands=False``: no
+        adversarial AXIS_COMMAND frames, so a commanded slew runs into the limit)."""
         r = self.rng
         k = r.random()
         if k < 0.45:
-            msg = self._adversarial()
+            msg = self._adversarial(axis_commands)
         elif k < 0.9:
             n = r.randint(0, 8)
             msg = can.Message(arbitration_id=r.randint(0, 0x7FF), is_extended_id=False,
@@ -158,6 +168,8 @@ class FuzzResult:
     malformed_frames: dict = field(default_factory=dict)
     refused_commands: dict = field(default_factory=dict)
     board_resets: dict = field(default_factory=dict)
+    fault_frames: dict = field(default_factory=dict)
+    max_angle_deg: dict = field(default_factory=lambda: {"ra": -180.0, "dec": -180.0})
     simulated_s: float = 0.0
     wall_s: float = 0.0
 
@@ -214,15 +226,28 @@ def run_fuzz(frames: int, seed: int = 0, *, stop_every: int = 20_000,
         for axis, deg in zip(("ra", "dec"), start_deg):
             tel.plants[axis].reset(math.radians(deg))
         fuzzer = SimBus(network=tel.network, name="fuzzer")
+        fault_ids = {P.fault_cob_id(b.node_id) for b in tel.boards.values()}
+
+        def count_faults(msg) -> None:     # FAULT frames on the wire, by code (cumulative)
+            if msg.arbitration_id in fault_ids and len(msg.data) == 8:
+                code = msg.data[1]
+                name = P.FaultCode(code).name if code in P.FaultCode._value2member_map_ else str(code)
+                res.fault_frames[name] = res.fault_frames.get(name, 0) + 1
+        tel.network.add_tap(count_faults)
         sched = tel.scheduler
         boards = list(tel.boards.values())
         readers = {"ra": tel.boards["ra-reader"], "dec": tel.boards["dec-reader"]}
         sent = 0
         next_stop = stop_every
+        block0 = 0
+        _slew_all(fuzzer)
         while sent < frames:
             try:
+                # first half of each block: the axes slew toward their high limits while every
+                # other kind of adversarial frame keeps coming; second half: everything
+                slewing = sent - block0 < stop_every // 2
                 for _ in range(10):
-                    msg, via_bus = gen.next()
+                    msg, via_bus = gen.next(axis_commands=not slewing)
                     if via_bus:
                         fuzzer.send(msg)
                         res.frames_via_bus += 1
@@ -236,7 +261,9 @@ def run_fuzz(frames: int, seed: int = 0, *, stop_every: int = 20_000,
                 tel.advance_plants()
                 if sent >= next_stop:
                     next_stop += stop_every
+                    block0 = sent
                     _measure_stop(tel, fuzzer, res)
+                    _slew_all(fuzzer)
             except Exception as exc:      # an emulator exception is the finding: count, stop
                 res.exceptions += 1
                 res.exception_messages.append(f"{type(exc).__name__}: {exc}"[:300])
@@ -246,6 +273,8 @@ def run_fuzz(frames: int, seed: int = 0, *, stop_every: int = 20_000,
             for axis, rd in readers.items():
                 p = tel.plants[axis]
                 deg = math.degrees(p.axis_angle_rad)
+                if deg > res.max_angle_deg[axis]:
+                    res.max_angle_deg[axis] = deg
                 over = max(deg - rd.high_limit_deg, rd.low_limit_deg - deg, 0.0) * 3600.0
                 if over > res.overshoot_arcsec[axis]:
                     res.overshoot_arcsec[axis] = over
@@ -254,6 +283,7 @@ def run_fuzz(frames: int, seed: int = 0, *, stop_every: int = 20_000,
         res.frames_sent = sent
         res.simulated_s = sched.now_us / 1e6
         for name, b in tel.boards.items():
+            # board counters restart at each reset: these are since the last one
             res.malformed_frames[name] = b.malformed_frames
             res.refused_commands[name] = b.refused_commands
             res.board_resets[name] = b.reset_count
@@ -261,6 +291,13 @@ def run_fuzz(frames: int, seed: int = 0, *, stop_every: int = 20_000,
         tel.close()
     res.wall_s = time.perf_counter() - wall0
     return res
+
+
+def _slew_all(fuzzer) -> None:
+    """SLEW + to both axes (toward their high soft limits)."""
+    for node in P.AXIS_NODES:
+        fuzzer.send(can.Message(arbitration_id=P.axis_command_cob_id(node), is_extended_id=False,
+                                data=P.encode_axis_command(P.AxisCommand.SLEW, 1, 0)))
 
 
 def _measure_stop(tel, fuzzer, res: FuzzResult) -> None:
