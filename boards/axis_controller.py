@@ -34,7 +34,8 @@ import can
 from bus import protocol as proto
 from boards.control import DRIVE_LAWS, IncrementalPI
 from boards.firmware_base import (FAULT_BRAKE_CUT, FAULT_HOST_TIMEOUT, FAULT_LIMIT_STOP,
-                                  FAULT_OVERCURRENT, FAULT_READER_LOST, STATE_FAULT, Board)
+                                  FAULT_OVERCURRENT, FAULT_OVERSPEED, FAULT_READER_LOST,
+                                  STATE_FAULT, Board)
 from boards.safety import (DEFAULT_SAFETY, REFUSE_DUTY, REFUSE_GAIN, REFUSE_RATE, REFUSE_READER,
                            SafetyLimits)
 from boards.peripherals import Adc, Pwm, Qei, Timer
@@ -197,6 +198,7 @@ class AxisController(Board):
         self.safety = safety
         self.fault_clear_hold_us = int(safety.fault_clear_hold_us)
         self.slew_arcsec_s = SLEW_ARCSEC_S
+        self.overspeed_arcsec_s = SLEW_ARCSEC_S * safety.overspeed_factor
         self._brake_step = safety.brake_decel_arcsec_s2 * self.tick_us * 1e-6   # ″/s per tick
 
         self.pwm = Pwm(2, on_duties)
@@ -242,6 +244,7 @@ class AxisController(Board):
         self.brake_cut = False
         self._brake_bad = 0
         self._brake_ramp_end_us = 0
+        self._overspeed_ticks = 0
         self._host_us = now
         self.host_timed_out = False
         self.reader_seen = False
@@ -345,6 +348,14 @@ class AxisController(Board):
     def _supervise(self, now_us: int) -> None:
         """Per tick: LIMIT expiry, position-reader and host watchdogs."""
         sf = self.safety
+        w = self.omega_arcsec_s
+        if w > self.overspeed_arcsec_s or w < -self.overspeed_arcsec_s:
+            self._overspeed_ticks += 1
+            if self._overspeed_ticks >= sf.brake_bad_ticks and not self.braking:
+                self.queue_fault(FAULT_OVERSPEED, int(min(abs(w), 65535)))
+                self._brake(AxisMode.STOP)
+        else:
+            self._overspeed_ticks = 0
         if self.limit_flags and now_us - self._limit_us > sf.limit_expiry_us:
             self.limit_flags = 0                       # LIMIT frames stopped: the state expires
             if self.mode == AxisMode.LIMIT_STOP:

@@ -47,7 +47,7 @@ from bus.scheduler import PRIO_BACKGROUND, Scheduler
 __all__ = ["Board", "RESET_CAUSES", "STATE_BOOT", "STATE_OPERATIONAL", "STATE_FAULT",
            "STATE_STOPPED", "FAULT_MALFORMED", "FAULT_CRC", "FAULT_OVERCURRENT",
            "FAULT_LIMIT_STOP", "FAULT_WATCHDOG", "FAULT_STEP_LOSS", "FAULT_REFUSED",
-           "FAULT_BRAKE_CUT", "FAULT_READER_LOST", "FAULT_HOST_TIMEOUT", "FAULT_CLEARED"]
+           "FAULT_BRAKE_CUT", "FAULT_READER_LOST", "FAULT_HOST_TIMEOUT", "FAULT_CLEARED", "FAULT_OVERSPEED"]
 
 RESET_CAUSES: Dict[str, int] = {"power_on": 0, "watchdog": 1, "software": 2}
 _CAUSE_NAMES = {v: k for k, v in RESET_CAUSES.items()}
@@ -60,6 +60,7 @@ FAULT_BRAKE_CUT = int(proto.FaultCode.BRAKE_CUT)
 FAULT_READER_LOST = int(proto.FaultCode.READER_LOST)
 FAULT_HOST_TIMEOUT = int(proto.FaultCode.HOST_TIMEOUT)
 FAULT_CLEARED = int(proto.FaultCode.FAULT_CLEARED)
+FAULT_OVERSPEED = int(proto.FaultCode.OVERSPEED)
 #: A fault condition (:meth:`Board.fault_condition`) is cleared after being absent this long, µs
 #: (assumed: 1 s, see boards/safety.py ``fault_clear_hold_us``).
 FAULT_CLEAR_HOLD_US = 1_000_000

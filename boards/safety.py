@@ -70,6 +70,12 @@ class SafetyLimits:
         The reader's braking zone uses its rate estimate capped at this, ″/s (default 14 400 =
         twice the slew rate, the highest commanded rate: a larger estimate from two reads 10 ms
         apart is a position jump, e.g. an offset change, not motion).
+    overspeed_factor : float
+        An axis measured faster than this × the slew rate (any mode, e.g. OPEN_LOOP at full
+        duty) for ``brake_bad_ticks`` consecutive ticks is braked to rest and FAULT OVERSPEED
+        is sent (default 1.5: above the PI's ≈20 % overshoot of a slew step (docs/boards.md),
+        inside the 2 × slew the reader's braking zone is computed for). Found by the 10⁶-frame
+        fuzz: open loop at full duty ran DEC 0.36° past its limit.
     brake_stop_tol_arcsec_s : float
         Rate below which the axis counts as stopped, ″/s (default 50: ≈ 20 QEI counts per 5 ms
         tick, well above the quantisation of 2.3″/s, below the 100″/s guide rate).
@@ -98,6 +104,7 @@ class SafetyLimits:
     brake_latency_us: int = 40_000
     brake_grace_us: int = 200_000
     max_zone_rate_arcsec_s: float = 14_400.0
+    overspeed_factor: float = 1.5
     brake_stop_tol_arcsec_s: float = 50.0
     host_watchdog_us: Optional[int] = None
     reader_timeout_us: int = 50_000
@@ -105,6 +112,8 @@ class SafetyLimits:
     fault_clear_hold_us: int = 1_000_000
 
     def __post_init__(self) -> None:
+        if not 1.0 <= self.overspeed_factor < float("inf"):
+            raise ValueError(f"overspeed_factor must be >= 1, got {self.overspeed_factor}")
         if not self.gain_band >= 1.0:
             raise ValueError(f"gain_band must be >= 1, got {self.gain_band}")
         for name in ("brake_decel_arcsec_s2", "brake_margin_arcsec_s", "brake_stop_tol_arcsec_s",

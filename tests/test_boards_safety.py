@@ -271,3 +271,13 @@ def test_reader_reporting_invalid_stops_the_axis_and_the_fault_clears_later():
     assert got == [(p.FaultCode.READER_LOST, 2), (p.FaultCode.FAULT_CLEARED, p.FaultCode.READER_LOST)]
     command(bus, p.AxisCommand.SLEW)
     assert ax.mode == AxisMode.SLEW
+
+
+def test_open_loop_overspeed_is_braked_and_reported():
+    """OPEN_LOOP at full duty drives the toy axis past 1.5 × slew: braking stop, FAULT OVERSPEED."""
+    s, bus, plant, ax = make()
+    command(bus, p.AxisCommand.OPEN_LOOP, 1, 32767)          # toy plant: 19 550″/s at full duty
+    s.run_until(2_000_000)
+    assert ax.mode == AxisMode.STOP and abs(plant.omega) < 50.0
+    f = [x for x in faults(bus) if x.code == p.FaultCode.OVERSPEED]
+    assert len(f) == 1 and f[0].detail > 1.5 * SLEW_ARCSEC_S
