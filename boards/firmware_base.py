@@ -23,7 +23,8 @@ per 250 ms, no per-sample or per-byte events. Without a port nothing is sampled.
 Robustness contract (architecture.md, STYLE.md §8): a frame that cannot be decoded (wrong DLC,
 wrong device-type byte, unknown command or enum, remote or extended frame on an accepted id) is
 counted in ``malformed_frames`` and answered with a ``FAULT`` frame (error code 1, detail = the
-frame's identifier); the board never raises into the bus for it. Any *other* exception is a bug
+frame's identifier) — at most a burst of 4, then 10 per second (a flood of bad frames must not
+fill the board's own transmit queue); the board never raises into the bus for it. Any *other* exception is a bug
 in the emulator and propagates (the scheduler stops the run and names the board).
 
 Reset semantics: :meth:`Board.reset` is a processor reset. RAM state, counters (malformed
@@ -61,6 +62,12 @@ FAULT_READER_LOST = int(proto.FaultCode.READER_LOST)
 FAULT_HOST_TIMEOUT = int(proto.FaultCode.HOST_TIMEOUT)
 FAULT_CLEARED = int(proto.FaultCode.FAULT_CLEARED)
 FAULT_OVERSPEED = int(proto.FaultCode.OVERSPEED)
+#: FAULT MALFORMED_FRAME rate limit (token bucket): a burst of this many, then this many per
+#: second (assumed; found by the 10⁶-frame fuzz: one FAULT per malformed frame let a flood of
+#: bad frames fill a board's own TX FIFO, so its LIMIT frames waited and DEC ran 0.36° past
+#: its limit). Every malformed frame is still counted in ``malformed_frames``.
+MALFORMED_FAULT_BURST = 4
+MALFORMED_FAULT_RATE_HZ = 10
 #: A fault condition (:meth:`Board.fault_condition`) is cleared after being absent this long, µs
 #: (assumed: 1 s, see boards/safety.py ``fault_clear_hold_us``).
 FAULT_CLEAR_HOLD_US = 1_000_000
@@ -137,6 +144,8 @@ class Board:
         #: active fault conditions {code: last time the condition was present, µs}
         self.active_faults: Dict[int, int] = {}
         self.faults_suppressed = 0           # occurrences folded into an active condition
+        self._mf_tokens = float(MALFORMED_FAULT_BURST)
+        self._mf_t_us = self.scheduler.now_us
         self._tlm_values: list = []          # flat field values of the samples so far
         self._tlm_n = 0
         self._tlm_t0_us = 0
@@ -228,7 +237,16 @@ class Board:
                 self.handle_frame(msg.arbitration_id, bytes(msg.data))
         except MalformedFrame:
             self.malformed_frames += 1
-            self.send_fault(FAULT_MALFORMED, detail=msg.arbitration_id)
+            now = self.scheduler.now_us
+            tokens = min(float(MALFORMED_FAULT_BURST),
+                         self._mf_tokens + (now - self._mf_t_us) * MALFORMED_FAULT_RATE_HZ * 1e-6)
+            self._mf_t_us = now
+            if tokens >= 1.0:
+                self._mf_tokens = tokens - 1.0
+                self.send_fault(FAULT_MALFORMED, detail=msg.arbitration_id)
+            else:
+                self._mf_tokens = tokens
+                self.faults_suppressed += 1
 
     def handle_frame(self, arbitration_id: int, data: bytes) -> None:
         """Decode and apply an accepted frame; raise ``MalformedFrame`` if it does not decode."""

@@ -226,6 +226,9 @@ def run_fuzz(frames: int, seed: int = 0, *, stop_every: int = 20_000,
         for axis, deg in zip(("ra", "dec"), start_deg):
             tel.plants[axis].reset(math.radians(deg))
         fuzzer = SimBus(network=tel.network, name="fuzzer")
+        # STOP_ALL and SLEW go from a node of their own: behind the fuzzer's own FIFO they would
+        # measure the fuzzer's queue, not the boards
+        commander = SimBus(network=tel.network, name="fuzz-host")
         fault_ids = {P.fault_cob_id(b.node_id) for b in tel.boards.values()}
 
         def count_faults(msg) -> None:     # FAULT frames on the wire, by code (cumulative)
@@ -240,7 +243,7 @@ def run_fuzz(frames: int, seed: int = 0, *, stop_every: int = 20_000,
         sent = 0
         next_stop = stop_every
         block0 = 0
-        _slew_all(fuzzer)
+        _slew_all(commander)
         while sent < frames:
             try:
                 # first half of each block: the axes slew toward their high limits while every
@@ -262,8 +265,8 @@ def run_fuzz(frames: int, seed: int = 0, *, stop_every: int = 20_000,
                 if sent >= next_stop:
                     next_stop += stop_every
                     block0 = sent
-                    _measure_stop(tel, fuzzer, res)
-                    _slew_all(fuzzer)
+                    _measure_stop(tel, commander, res)
+                    _slew_all(commander)
             except Exception as exc:      # an emulator exception is the finding: count, stop
                 res.exceptions += 1
                 res.exception_messages.append(f"{type(exc).__name__}: {exc}"[:300])

@@ -281,3 +281,15 @@ def test_open_loop_overspeed_is_braked_and_reported():
     assert ax.mode == AxisMode.STOP and abs(plant.omega) < 50.0
     f = [x for x in faults(bus) if x.code == p.FaultCode.OVERSPEED]
     assert len(f) == 1 and f[0].detail > 1.5 * SLEW_ARCSEC_S
+
+
+def test_a_flood_of_malformed_frames_is_counted_but_faults_are_rate_limited():
+    """1000 malformed frames in 1 s: all counted; FAULT MALFORMED ≤ burst 4 + 10 per second,
+    so the board's own transmit queue stays free for its safety frames."""
+    s, bus, plant, ax = make()
+    bad = p.encode_axis_command(p.AxisCommand.SLEW, 1, 0)[:5]          # wrong DLC
+    s.call_every(1_000, lambda now: bus.inject(p.axis_command_cob_id(1), bad))
+    s.run_until(1_000_000)
+    assert ax.malformed_frames == 1000
+    n = sum(1 for f in faults(bus) if f.code == p.FaultCode.MALFORMED_FRAME)
+    assert 4 <= n <= 4 + 10 + 1
