@@ -157,6 +157,12 @@ class FaultCode(IntEnum):
     LIMIT_STOP = 4
     WATCHDOG = 5
     STEP_LOSS = 6    #: focus: half-steps commanded but not seen on the motor encoder
+    COMMAND_REFUSED = 7  #: a command outside its documented limits; detail = reason << 8 | cmd
+    BRAKE_CUT = 8        #: braking supervisor cut the duty (axis did not slow down); detail |ω| ″/s
+    READER_LOST = 9      #: axis: position reader silent (detail 1) or reporting invalid (2)
+    HOST_TIMEOUT = 10    #: axis: host watchdog expired, controlled stop; detail = timeout ms
+    FAULT_CLEARED = 11   #: the fault condition whose code is in ``detail`` has cleared
+    OVERSPEED = 12       #: axis faster than the overspeed limit (e.g. OPEN_LOOP): braking stop; detail |ω| ″/s
 
 
 class AxisMode(IntEnum):
@@ -819,7 +825,7 @@ _add(FrameSpec("LIMIT", FC_LIMIT, READER_NODES, "node", None, (
     "reader to axis controller: on change, then every 100 ms while a limit is active"))
 
 _add(FrameSpec("FAULT", FC_FAULT, BOARD_NODES, "node", None, (
-    Field("code", 1, 8, False, 1, 6, "enum", enum=FaultCode),
+    Field("code", 1, 8, False, 1, 12, "enum", enum=FaultCode),
     Field("malformed_frames", 2, 16, False, 0, 0xFFFF, "clamp", unit="frames"),
     Field("crc_errors", 4, 16, False, 0, 0xFFFF, "clamp", unit="reads"),
     Field("detail", 6, 16, False, 0, 0xFFFF, "clamp", doc="code-specific, e.g. offending COB-ID"),
