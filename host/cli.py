@@ -12,7 +12,7 @@ import importlib
 import sys
 
 #: Subcommand modules, in help order.
-SUBCOMMANDS = ("host.cli_run", "host.cli_serve", "host.cli_bench", "host.cli_calibrate", "host.cli_validate")
+SUBCOMMANDS = ("host.cli_run", "host.cli_serve", "host.cli_bench", "host.cli_calibrate", "host.cli_benchmark", "host.cli_validate")
 
 
 def build_parser() -> argparse.ArgumentParser:
