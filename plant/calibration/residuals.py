@@ -80,7 +80,11 @@ def _lomb(x: np.ndarray, r: np.ndarray, freqs: np.ndarray) -> np.ndarray:
     var = float(r @ r)
     if var <= 0 or x.size < 10:
         return np.zeros_like(freqs)
-    p = signal.lombscargle(x, r, 2 * np.pi * freqs)
+    # in chunks of frequencies: scipy's lombscargle holds (samples × frequencies) temporaries,
+    # which for 10⁵ samples and 4000 frequencies is gigabytes (issue 7)
+    w = 2 * np.pi * freqs
+    chunk = max(1, int(2_000_000 // max(x.size, 1)))
+    p = np.concatenate([signal.lombscargle(x, r, w[i : i + chunk]) for i in range(0, w.size, chunk)])
     return np.clip(2.0 * p / var, 0.0, 1.0)
 
 
