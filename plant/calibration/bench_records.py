@@ -257,8 +257,8 @@ def _trajectory(rng: np.random.Generator, kind: str, travel: float, vmax: float,
         v_track = min(travel / run, 0.2 * vmax)
         run = travel / v_track
         segs = [(0.0, 0.5)]
-        for _ in range(int(rng.integers(2, 4))):
-            segs += [(v_track, run), (-vmax, travel / vmax)]
+        for _ in range(int(rng.integers(1, 3))):  # track both ways (else the directions never share a speed)
+            segs += [(v_track, run), (-vmax, travel / vmax), (-v_track, run), (vmax, travel / vmax)]
         segs.append((0.0, 0.5))
     v = np.concatenate([np.full(max(int(round(d / dt)), 1), lvl) for lvl, d in segs])
     return _rate_limit(v, vmax / float(rng.uniform(0.1, 0.5)), dt)

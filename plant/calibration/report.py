@@ -347,7 +347,8 @@ def _markdown(r: dict[str, Any]) -> str:
     if not r["unexplained"]:
         L += ["None above the reporting threshold.", ""]
     for x in r["unexplained"]:
-        L.append(f"- {x['domain']}: {x['frequency']:.4g} {x.get('unit', '')}, {x['share_pct']:.1f} % of the final residual variance"
+        where = f"{x['frequency']:.4g} {x.get('unit', '')}" if x.get("frequency") is not None else (x.get("kind") or "broadband")
+        L.append(f"- {x['domain']}: {where}, {x['share_pct']:.1f} % of the residual variance"
                  + (f" — {x['note']}" if x.get("note") else ""))
     L += ["", "## Significance rule", "", r["significance"], "", "## Candidates rejected", ""]
     for x in r["rejected"]:
