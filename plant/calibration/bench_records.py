@@ -242,23 +242,25 @@ def _trajectory(rng: np.random.Generator, kind: str, travel: float, vmax: float,
         segs = [(0.0, 0.5)]
         sign = 1.0
         for v in levels:
+            v = max(v, travel / 20.0)  # passes of at most 20 s (records stay 30–200 s long)
             segs.append((sign * v, travel / v))
             sign = -sign
         segs.append((0.0, 0.5))
     elif kind == "sinusoid":
         period = float(rng.uniform(4.0, 20.0))
-        period = max(period, math.pi * travel / vmax)
+        period = min(max(period, math.pi * travel / vmax), 30.0)
         n_cyc = int(rng.integers(3, 8))
         t = np.arange(0.0, n_cyc * period, dt)
         v = 0.5 * travel * 2 * math.pi / period * np.sin(2 * math.pi * t / period)
         return _rate_limit(v, 4 * vmax, dt)
     else:  # tracking: slow constant rate across the travel, fast slew back
-        run = float(rng.uniform(20.0, 60.0))
+        run = float(rng.uniform(15.0, 40.0))
         v_track = min(travel / run, 0.2 * vmax)
         run = travel / v_track
-        segs = [(0.0, 0.5)]
-        for _ in range(int(rng.integers(1, 3))):  # track both ways (else the directions never share a speed)
-            segs += [(v_track, run), (-vmax, travel / vmax), (-v_track, run), (vmax, travel / vmax)]
+        v_slew = max(vmax, travel / 10.0)
+        # track both ways (else the two directions never share a speed and asymmetric friction is
+        # not identifiable); slews of at most 10 s
+        segs = [(0.0, 0.5), (v_track, run), (-v_slew, travel / v_slew), (-v_track, run), (v_slew, travel / v_slew)]
         segs.append((0.0, 0.5))
     v = np.concatenate([np.full(max(int(round(d / dt)), 1), lvl) for lvl, d in segs])
     return _rate_limit(v, vmax / float(rng.uniform(0.1, 0.5)), dt)

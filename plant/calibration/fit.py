@@ -380,9 +380,31 @@ def design_full(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None, t=No
 
 
 def design(prep: Prepared, spec: ModelSpec) -> tuple[list[str], np.ndarray]:
-    """Decimated regressor (names, array of shape (M, p))."""
+    """Decimated regressor (names, array of shape (M, p)).
+
+    Decimated columns are cached on ``prep`` by the content of the full-rate column: the loop
+    evaluates hundreds of specs that differ in one column, and the zero-phase decimation filter is
+    the costly part.
+    """
     names, X = design_full(prep, spec)
-    return names, prep.dec(X)
+    cache = prep.__dict__.setdefault("_dec_cache", {})
+    if len(cache) > 256:
+        cache.clear()
+    out = []
+    todo = []
+    keys = []
+    for j in range(X.shape[1]):
+        col = np.ascontiguousarray(X[:, j])
+        key = (names[j], hash(col.tobytes()))
+        keys.append(key)
+        if key not in cache:
+            todo.append(j)
+    if todo:
+        D = prep.dec(X[:, todo])
+        for k, j in enumerate(todo):
+            cache[keys[j]] = D[:, k].copy()
+    out = np.column_stack([cache[k] for k in keys])
+    return names, out
 
 
 def effective_n(resid: np.ndarray) -> float:
@@ -474,7 +496,7 @@ def refine_hyper(
     spec: ModelSpec,
     rel_bounds: float | dict[int, float] = 0.3,
     free: list[int] | None = None,
-    maxiter: int = 200,
+    maxiter: int = 40,
 ) -> ModelSpec:
     """Refine the nonlinear hyper-parameters (log space, bounded) by minimising the RSS.
 
@@ -525,7 +547,7 @@ def refine_hyper(
     r0 = fun(u0)
     try:
         sol = optimize.least_squares(fun, u0, bounds=(-np.ones(len(free)), np.ones(len(free))), method="trf",
-                                     diff_step=1e-4, x_scale=1.0, max_nfev=maxiter)
+                                     diff_step=1e-4, x_scale=1.0, max_nfev=maxiter, xtol=1e-6, ftol=1e-8)
         best = sol.x if float(sol.fun @ sol.fun) <= float(r0 @ r0) else u0
     except ValueError:
         best = u0

@@ -366,8 +366,8 @@ def _b_position_periodic(ctx: _Ctx) -> list[dict[str, Any]]:
         new.position_periods.append(period)
         slot = len(new.position_periods) - 1
         i = _hyper_index(new, "position_periods", slot)
-        # refine within the spectral peak's half-width (≈ one cycle over the travel)
-        f = fit_model(ctx.prep, new, free=[i], rel_bounds={i: min(0.25, 1.0 / cycles)})
+        # refine within two spectral bins of the peak (one bin = one cycle over the travel)
+        f = fit_model(ctx.prep, new, free=[i], rel_bounds={i: min(0.25, 2.0 / cycles)})
         out.append({"kind": "position_periodic", "slot": slot, "fit": f, "group": "line",
                     "evidence": f"the residual's position spectrum peaks at {pk['frequency']:.4g} cycles/{ctx.unit_pos} (period "
                                 f"{period:.4g} {ctx.unit_pos}, {cycles:.1f} cycles over the travel), one sinusoid explaining "
@@ -399,7 +399,7 @@ def _b_time_periodic(ctx: _Ctx) -> list[dict[str, Any]]:
         new.time_frequencies.append(f0)
         slot = len(new.time_frequencies) - 1
         i = _hyper_index(new, "time_frequencies", slot)
-        f = fit_model(ctx.prep, new, free=[i], rel_bounds={i: min(0.25, 1.0 / (f0 * T))})
+        f = fit_model(ctx.prep, new, free=[i], rel_bounds={i: min(0.25, 2.0 / (f0 * T))})
         out.append({"kind": "time_periodic", "slot": slot, "fit": f, "group": "line",
                     "motion_share": motion_share(ctx.prep, f.spec.time_frequencies[slot]),
                     "evidence": f"the residual's time spectrum peaks at {f0:.4g} Hz, one sinusoid explaining "
