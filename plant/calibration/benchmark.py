@@ -63,11 +63,14 @@ def _child(conn, csv_path: str, out_dir: str) -> None:  # pragma: no cover - run
         from plant.calibration.report import calibrate
 
         rss0 = _rss_mb()
+        ru0 = resource.getrusage(resource.RUSAGE_SELF)
+        cpu0 = ru0.ru_utime + ru0.ru_stime
         t0 = time.perf_counter()
         rep = calibrate(csv_path, out_dir, plots=False)
         wall = time.perf_counter() - t0
-        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-        conn.send({"ok": True, "wall_s": wall, "peak_rss_mb": peak, "rss_start_mb": rss0,
+        ru = resource.getrusage(resource.RUSAGE_SELF)
+        peak = ru.ru_maxrss / 1024.0
+        conn.send({"ok": True, "wall_s": wall, "cpu_s": ru.ru_utime + ru.ru_stime - cpu0, "peak_rss_mb": peak, "rss_start_mb": rss0,
                    "effects": [{"kind": e["kind"], "params": e["params"]} for e in rep["effects"]],
                    "unexplained": rep["unexplained"], "conclusion": rep["conclusion"],
                    "competition": rep.get("competition", [])})
@@ -146,6 +149,7 @@ def score(records: list[dict[str, Any]]) -> dict[str, Any]:
     walls = [r["wall_s"] for r in records if r.get("wall_s") is not None]
     peaks = [r["peak_rss_mb"] for r in records if r.get("peak_rss_mb") is not None]
     per_sample_s = [r["wall_s"] / r["n_samples"] for r in records if r.get("wall_s") is not None]
+    cpus = [r["cpu_s"] for r in records if r.get("cpu_s") is not None]
     return {
         "n_records": n,
         "exact_set_accuracy": n_exact / n if n else None,
@@ -156,7 +160,8 @@ def score(records: list[dict[str, Any]]) -> dict[str, Any]:
         "confusion": {"rows": rows, "cols": cols, "counts": conf},
         "key_parameters": key,
         "time": {"median_s": float(np.median(walls)) if walls else None, "max_s": max(walls) if walls else None,
-                 "median_us_per_sample": 1e6 * float(np.median(per_sample_s)) if per_sample_s else None},
+                 "median_us_per_sample": 1e6 * float(np.median(per_sample_s)) if per_sample_s else None,
+                 "median_cpu_s": float(np.median(cpus)) if cpus else None},
         "memory": {"median_peak_rss_mb": float(np.median(peaks)) if peaks else None,
                    "max_peak_rss_mb": max(peaks) if peaks else None},
         "failures": [r["seed"] for r in records if not r.get("ok", True)],
@@ -206,6 +211,7 @@ def run_benchmark(out_dir: str | Path, seeds: tuple[int, ...] | list[int] = DEFA
             entry["unexplained"] = res["unexplained"]
             entry["conclusion"] = res["conclusion"]
             entry["wall_s"] = res["wall_s"]
+            entry["cpu_s"] = res["cpu_s"]
             entry["peak_rss_mb"] = res["peak_rss_mb"]
             entry["param_errors"] = {}
             for e in res["effects"]:
@@ -229,7 +235,7 @@ def run_benchmark(out_dir: str | Path, seeds: tuple[int, ...] | list[int] = DEFA
         n = int(rec.t_s.size)
         lr = {"n_samples": n, "hidden": list(rec.hidden), "fs_hz": rec.meta["fs_log_hz"], "ok": res["ok"]}
         if res["ok"]:
-            lr.update({"wall_s": res["wall_s"], "peak_rss_mb": res["peak_rss_mb"], "us_per_sample": 1e6 * res["wall_s"] / n,
+            lr.update({"wall_s": res["wall_s"], "cpu_s": res["cpu_s"], "peak_rss_mb": res["peak_rss_mb"], "us_per_sample": 1e6 * res["wall_s"] / n,
                        "peak_bytes_per_sample": res["peak_rss_mb"] * 2**20 / n, "named": [e["kind"] for e in res["effects"]]})
         else:
             lr["error"] = res["error"]
@@ -277,7 +283,8 @@ def markdown(result: dict[str, Any]) -> str:
     if "long_record" in result:
         lr = result["long_record"]
         if lr.get("ok"):
-            L.append(f"- long record: {lr['n_samples']} samples at {lr['fs_hz']:g} Hz: {lr['wall_s']:.0f} s wall, "
+            L.append(f"- long record: {lr['n_samples']} samples at {lr['fs_hz']:g} Hz: {lr['wall_s']:.0f} s wall "
+                     f"({lr['cpu_s']:.0f} s CPU), "
                      f"peak RSS {lr['peak_rss_mb']:.0f} MB ({lr['us_per_sample']:.1f} µs and {lr['peak_bytes_per_sample']:.0f} B per sample)")
         else:
             L.append(f"- long record: failed ({lr.get('error')})")

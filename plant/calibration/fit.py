@@ -52,6 +52,8 @@ __all__ = ["Prepared", "ModelSpec", "FitResult", "prepare", "fit_model", "predic
 N_BORDER = 49
 #: Records longer than this are reduced before the fit (see :func:`prepare`).
 MAX_FULL_RATE = 250_000
+#: At most this many decimated samples enter the fit (long records: a coarser decimation).
+MAX_FIT_SAMPLES = 60_000
 
 
 @dataclasses.dataclass
@@ -122,7 +124,8 @@ def prepare(
         Butterworth cut-off [Hz]; default ``fs/10`` (EMPS: 100 Hz, the benchmark's ``5*20``).
     decimate : int, optional
         Parallel decimation factor; default ``round(fs/100 Hz)`` so that the fit sees ≈ 100 Hz
-        whatever the logging rate (EMPS at 1 kHz: 10, the benchmark's ``round(0.8·fnyq/40 Hz)``).
+        whatever the logging rate (EMPS at 1 kHz: 10, the benchmark's ``round(0.8·fnyq/40 Hz)``),
+        and at least so much that no more than :data:`MAX_FIT_SAMPLES` samples enter the fit.
 
     Notes
     -----
@@ -160,7 +163,7 @@ def prepare(
     dt = record.dt_s
     fs = 1.0 / dt
     if decimate is None:
-        decimate = max(1, int(round(fs / 100.0)))
+        decimate = max(1, int(round(fs / 100.0)), math.ceil((len(record) - n_border) / MAX_FIT_SAMPLES))
     if cutoff_hz is None:
         cutoff_hz = fs / 10.0
     if not 0 < cutoff_hz < fs / 2:
@@ -388,7 +391,7 @@ def design(prep: Prepared, spec: ModelSpec) -> tuple[list[str], np.ndarray]:
     """
     names, X = design_full(prep, spec)
     cache = prep.__dict__.setdefault("_dec_cache", {})
-    if len(cache) > 256:
+    if len(cache) * prep.y_dec.size * 8 > 64 * 2**20:  # at most ≈ 64 MB of cached columns
         cache.clear()
     out = []
     todo = []
