@@ -187,7 +187,7 @@ def fit_baseline(prep: Prepared, cfg: LoopConfig | None = None) -> tuple[FitResu
 
     Criterion: the best Stribeck velocity on a log grid (0.3 %–30 % of the 95th-percentile speed),
     refined, with ``Ts − Fc ≥ 0`` as a bound, must (a) pass the blocked cross-validation test of the
-    loop (``z ≥ z_crit``) and (b) have at least 2 % of the samples in motion slower than ``2·vs`` —
+    loop at the run's family-wise level and (b) have at least 2 % of the samples in motion slower than ``2·vs`` —
     otherwise the low-speed region is not sampled and ``Ts``/``vs`` would be extrapolations.
     """
     cfg = cfg or LoopConfig()
@@ -212,7 +212,8 @@ def fit_baseline(prep: Prepared, cfg: LoopConfig | None = None) -> tuple[FitResu
     slow_share = float(np.mean(np.abs(prep.dq_dec[mov]) < 2 * best.spec.stribeck_vs)) if mov.any() else 0.0
     decision.update({"vs": best.spec.stribeck_vs, "static_minus_coulomb": excess, "std_eff": sd, "cv_gain_pct": gain,
                      "cv_z": z, "slow_share": slow_share})
-    zc = z_critical(cfg.family_alpha, 1)
+    # the Stribeck test belongs to the run's family of tests: same Bonferroni level as the effects
+    zc = z_critical(cfg.family_alpha, 12 * cfg.max_effects)
     if z >= zc and gain > 0 and excess > 0 and slow_share >= 0.02:
         decision["included"] = True
         decision["reason"] = (f"predicts held-out blocks better (gain {gain:.1f} %, z = {z:.1f}), Ts − Fc = {excess:.3g} ± {sd:.2g}, "
