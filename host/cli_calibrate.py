@@ -65,7 +65,8 @@ def run(args: argparse.Namespace) -> int:
         c = rep["closed_loop"]
         print(f"closed loop force error: baseline {c['baseline_pct']:.2f} %, with effects {c['final_with_effects_pct']:.2f} %")
     for u in rep["unexplained"]:
-        print(f"  unexplained: {u['domain']} {u['frequency']:.4g} {u.get('unit', '')} ({u['share_pct']:.1f} %)")
+        where = f"{u['frequency']:.4g} {u.get('unit', '')}" if u.get("frequency") is not None else (u.get("kind") or "broadband")
+        print(f"  unexplained: {u['domain']} {where} ({u['share_pct']:.1f} %)")
     print(f"wrote {args.out}/report.json, report.md, {rep['model_file']}")
     return 0
 

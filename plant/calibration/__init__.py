@@ -5,5 +5,7 @@ Modules: :mod:`~plant.calibration.io` (records), :mod:`~plant.calibration.fit` (
 selection), :mod:`~plant.calibration.report` (``calibrate``: report.json/report.md/plots),
 :mod:`~plant.calibration.model_file` (calibrated parameter file),
 :mod:`~plant.calibration.emps_closed_loop` (EMPS closed-loop check),
-:mod:`~plant.calibration.generate` (synthetic records). See docs/calibration.md.
+:mod:`~plant.calibration.generate` (synthetic records), :mod:`~plant.calibration.bench_records` (an
+independent record generator that imports nothing from plant/) and
+:mod:`~plant.calibration.benchmark` (the benchmark scoring). See docs/calibration.md.
 """

@@ -63,6 +63,8 @@ DEFAULT_EFFECTS: dict[str, dict[str, float]] = {
     "time_periodic": {"frequency_hz": 7.3, "amplitude_nm": 0.3, "phase_rad": 1.0},
     "delay": {"delay_s": 0.008},
 }
+if set(DEFAULT_EFFECTS) - {"delay"} != set(EFFECT_KINDS):  # pragma: no cover - a new kind needs its defaults here
+    raise ImportError(f"generate.DEFAULT_EFFECTS covers {sorted(DEFAULT_EFFECTS)}; plant.effects has {sorted(EFFECT_KINDS)}")
 
 
 def parse_params(text: str | None) -> dict[str, float]:

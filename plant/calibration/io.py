@@ -199,6 +199,9 @@ def load_csv(path: str | Path, columns: dict[str, str] | None = None, linear: bo
     columns = dict(columns or {})
     if not path.exists():
         raise RecordError(f"{path}: no such file")
+    fast = _load_csv_fast(path, columns, linear)
+    if fast is not None:
+        return fast
     with path.open(newline="") as fh:
         lines = [ln for ln in fh if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:
@@ -245,6 +248,32 @@ def load_csv(path: str | Path, columns: dict[str, str] | None = None, linear: bo
         source=str(path),
         extra={"format": "csv"},
     )
+
+
+def _load_csv_fast(path: Path, columns: dict[str, str], linear: bool) -> Record | None:
+    """Numeric CSV through ``numpy.loadtxt`` (compiled parser; ≈ 40 B per value in memory instead of
+    the Python row lists). Returns None whenever anything is unusual (comments, blank lines, a bad
+    cell, a missing column): the careful reader then produces the exact error message."""
+    try:
+        with path.open() as fh:
+            header = [h.strip() for h in fh.readline().split(",")]
+        index = {h: i for i, h in enumerate(header)}
+        want = {c: columns.get(c, c) for c in REQUIRED_COLUMNS + OPTIONAL_COLUMNS}
+        if any(want[c] not in index for c in REQUIRED_COLUMNS):
+            return None
+        use = {c: index[n] for c, n in want.items() if n in index}
+        order = sorted(set(use.values()))
+        arr = np.loadtxt(path, delimiter=",", skiprows=1, usecols=order, ndmin=2, dtype=float)
+    except (ValueError, OSError, UnicodeDecodeError):
+        return None
+    if arr.shape[0] == 0 or not np.all(np.isfinite(arr)):
+        return None
+    col = {c: arr[:, order.index(j)].copy() for c, j in use.items()}
+    del arr
+    _check_uniform(path, col["time_s"])
+    return Record(name=path.stem, t_s=col["time_s"], position=col["position_rad"], torque=col["torque_nm"],
+                  velocity=col.get("velocity_rad_s"), current_a=col.get("current_a"), linear=linear, source=str(path),
+                  extra={"format": "csv"})
 
 
 SENSOR_LOG_MAGIC = "# schmidt-fil sensor log"

@@ -19,6 +19,8 @@ effective sample size ``n_eff`` because the residuals are autocorrelated.
 
 from __future__ import annotations
 
+import math
+
 
 import numpy as np
 from scipy import signal
@@ -80,31 +82,74 @@ def _lomb(x: np.ndarray, r: np.ndarray, freqs: np.ndarray) -> np.ndarray:
     var = float(r @ r)
     if var <= 0 or x.size < 10:
         return np.zeros_like(freqs)
-    p = signal.lombscargle(x, r, 2 * np.pi * freqs)
+    # in chunks of frequencies: scipy's lombscargle holds (samples × frequencies) temporaries,
+    # which for 10⁵ samples and 4000 frequencies is gigabytes (issue 7)
+    w = 2 * np.pi * freqs
+    chunk = max(1, int(2_000_000 // max(x.size, 1)))
+    p = np.concatenate([signal.lombscargle(x, r, w[i : i + chunk]) for i in range(0, w.size, chunk)])
     return np.clip(2.0 * p / var, 0.0, 1.0)
 
 
-def position_spectrum(q: np.ndarray, dq: np.ndarray, resid: np.ndarray, n_freq: int = 4000) -> dict:
+def _grid_share(vals: np.ndarray, n_used: int, d: float, fmin: float, fmax: float, pad: int = 4) -> tuple[np.ndarray, np.ndarray]:
+    """FFT periodogram of values on a uniform grid (empty cells 0), normalised approximately as the
+    share of the variance one sinusoid explains; exact shares are recomputed at the peaks."""
+    n = vals.size
+    nfft = 1 << int(math.ceil(math.log2(max(pad * n, 16))))
+    X = np.fft.rfft(vals, nfft)
+    f = np.fft.rfftfreq(nfft, d)
+    ss = float(vals @ vals)
+    share = 2.0 * np.abs(X) ** 2 / max(n_used, 1) / ss if ss > 0 else np.zeros(f.size)
+    m = (f >= fmin) & (f <= fmax)
+    return f[m], np.clip(share[m], 0.0, 1.0)
+
+
+def exact_share(x: np.ndarray, r: np.ndarray, freq: float) -> float:
+    """Share of the variance of ``r`` explained by one sinusoid of frequency ``freq`` in ``x`` (0..1)."""
+    r0 = r - r.mean()
+    v = float(r0 @ r0)
+    if v <= 0:
+        return 0.0
+    X = np.column_stack([np.sin(2 * np.pi * freq * x), np.cos(2 * np.pi * freq * x), np.ones_like(x)])
+    coef, *_ = np.linalg.lstsq(X, r, rcond=None)
+    e = r - X @ coef
+    return float(max(0.0, 1.0 - float(e @ e) / v))
+
+
+def position_spectrum(q: np.ndarray, dq: np.ndarray, resid: np.ndarray, n_freq: int | None = None) -> dict:
     """Residual spectrum against position over the samples in motion.
+
+    The residual is averaged in uniform position bins (one bin per median position step between
+    samples; at most 2^17 bins) and Fourier-transformed (angular resampling, as in order
+    tracking): O(n log n) time and O(n) memory, where a Lomb–Scargle sum over thousands of trial
+    frequencies cost seconds and gigabytes on long records. Shares at the peaks are recomputed
+    exactly from the raw samples (:func:`find_peaks`).
 
     Returns
     -------
     dict
-        ``freq`` [cycles per unit position], ``share`` (0..1), ``n`` samples used, ``n_eff``.
+        ``freq`` [cycles per unit position], ``share`` (0..1), ``n`` samples used, ``n_eff``, and
+        the raw ``x``, ``r`` used.
     """
     mov = moving_mask(dq)
     x, r = q[mov], resid[mov]
     if x.size < 50:
-        return {"freq": np.array([]), "share": np.array([]), "n": int(x.size), "n_eff": 0.0}
+        return {"freq": np.array([]), "share": np.array([]), "n": int(x.size), "n_eff": 0.0, "x": x, "r": r}
     span = float(x.max() - x.min())
     step = float(np.median(np.abs(np.diff(x)))) or span / x.size
-    fmin, fmax = 3.0 / span, 0.5 / step
-    freqs = np.linspace(fmin, fmax, n_freq) if fmax > fmin else np.array([fmin])
-    return {"freq": freqs, "share": _lomb(x, r, freqs), "n": int(x.size), "n_eff": effective_n(r)}
+    step = max(step, span / 2**17)
+    idx = np.minimum(((x - x.min()) / step).astype(np.int64), int(span / step))
+    nb = int(idx.max()) + 1
+    cnt = np.bincount(idx, minlength=nb)
+    rr = r - r.mean()
+    sums = np.bincount(idx, weights=rr, minlength=nb)
+    vals = np.where(cnt > 0, sums / np.maximum(cnt, 1), 0.0)
+    vals[cnt > 0] -= vals[cnt > 0].mean()
+    freqs, share = _grid_share(vals, int((cnt > 0).sum()), step, 2.0 / span, 0.5 / step)
+    return {"freq": freqs, "share": share, "n": int(x.size), "n_eff": effective_n(r), "x": x, "r": r}
 
 
-def time_spectrum(t: np.ndarray, resid: np.ndarray, f_max_hz: float | None = None, n_freq: int = 4000) -> dict:
-    """Residual spectrum against time.
+def time_spectrum(t: np.ndarray, resid: np.ndarray, f_max_hz: float | None = None, n_freq: int | None = None) -> dict:
+    """Residual spectrum against time (FFT on the sample grid; dropped standstill samples count as 0).
 
     Parameters
     ----------
@@ -114,14 +159,17 @@ def time_spectrum(t: np.ndarray, resid: np.ndarray, f_max_hz: float | None = Non
     Returns
     -------
     dict
-        ``freq`` [Hz], ``share`` (0..1), ``n``, ``n_eff``.
+        ``freq`` [Hz], ``share`` (0..1), ``n``, ``n_eff``, raw ``x`` (= t), ``r``.
     """
     dt = float(np.median(np.diff(t)))
     T = float(t[-1] - t[0])
-    fmin = 3.0 / T
+    idx = np.round((t - t[0]) / dt).astype(np.int64)
+    vals = np.zeros(int(idx[-1]) + 1)
+    rr = resid - resid.mean()
+    vals[idx] = rr
     fmax = f_max_hz if f_max_hz is not None else 0.8 * 0.5 / dt
-    freqs = np.linspace(fmin, fmax, n_freq)
-    return {"freq": freqs, "share": _lomb(t, resid, freqs), "n": int(t.size), "n_eff": effective_n(resid)}
+    freqs, share = _grid_share(vals, t.size, dt, 2.0 / T, fmax)
+    return {"freq": freqs, "share": share, "n": int(t.size), "n_eff": effective_n(resid), "x": t, "r": resid}
 
 
 def find_peaks(spec: dict, n_peaks: int = 3, min_share: float = 0.0, fap_max: float = 1.0) -> list[dict]:
@@ -141,8 +189,8 @@ def find_peaks(spec: dict, n_peaks: int = 3, min_share: float = 0.0, fap_max: fl
     n_eff = max(spec.get("n_eff", spec["n"]), 4.0)
     m_indep = max(spec["n"] / 2.0, 1.0)
     out = []
-    for i in idx:
-        z = float(s[i])
+    for i in idx[: 8 * n_peaks]:
+        z = exact_share(spec["x"], spec["r"], float(f[i])) if "x" in spec else float(s[i])
         fap = min(1.0, m_indep * (1.0 - z) ** ((n_eff - 3.0) / 2.0)) if z < 1 else 0.0
         if z < min_share or fap > fap_max:
             continue
@@ -150,9 +198,8 @@ def find_peaks(spec: dict, n_peaks: int = 3, min_share: float = 0.0, fap_max: fl
         if any(abs(f[i] - p["frequency"]) < 0.02 * p["frequency"] for p in out):
             continue
         out.append({"frequency": float(f[i]), "share": z, "fap": fap})
-        if len(out) >= n_peaks:
-            break
-    return out
+    out.sort(key=lambda p: -p["share"])
+    return out[:n_peaks]
 
 
 def reversal_profile(t: np.ndarray, dq: np.ndarray, resid: np.ndarray, window_s: float = 0.15) -> dict:

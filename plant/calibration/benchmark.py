@@ -1,0 +1,322 @@
+"""The calibration benchmark: the loop on records from the independent generator, scored.
+
+:func:`run_benchmark` writes each record of :mod:`plant.calibration.bench_records` as CSV, runs
+``calibrate`` on it (CSV reader included, no plots) in a fresh child process — so that the peak
+resident memory of one calibration can be read from the operating system — and scores what the
+loop named against what was hidden:
+
+* **confusion matrix**: rows = hidden kinds (``clean`` for a clean record, out-of-library names),
+  columns = named kinds (``none`` when nothing was named); one count per (hidden, named) pair of a
+  record;
+* **exact-set accuracy**: named library kinds == hidden library kinds (out-of-library records:
+  nothing named);
+* **false positives** on clean and on out-of-library records (any kind named), and for
+  out-of-library records whether ``unexplained`` carries the structure;
+* **key-parameter errors** of correctly named kinds (period/frequency: relative error, target
+  3 %; amplitudes, backlash width, asymmetric viscous coefficients: 30 %; σ0 reported, no target);
+* **time and peak memory** per record and per sample.
+
+Optionally a long record (``long_samples``, e.g. 10⁶) measures the hour-long-log case.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import multiprocessing as mp
+import resource
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from plant.calibration.bench_records import CI_SEEDS, DEFAULT_SEEDS, LIBRARY_KINDS, OUT_OF_LIBRARY, make_record
+from plant.effects import EFFECT_KINDS
+
+__all__ = ["run_benchmark", "score", "KEY_PARAMS", "TARGETS", "DEFAULT_SEEDS", "CI_SEEDS"]
+
+#: Key parameters per kind and the relative tolerance the issue sets (None: reported, no target).
+KEY_PARAMS: dict[str, dict[str, float | None]] = {
+    "position_periodic": {"period_rad": 0.03, "amplitude_nm": 0.30},
+    "time_periodic": {"frequency_hz": 0.03, "amplitude_nm": 0.30},
+    "gravity_imbalance": {"amplitude_nm": 0.30},
+    "backlash": {"width_rad": 0.30},
+    "asymmetric_friction": {"viscous_pos_nm_s_rad": 0.30, "viscous_neg_nm_s_rad": 0.30},
+    "presliding": {"sigma0_nm_rad": None},
+}
+
+#: Targets of issue 7 (fractions).
+TARGETS = {"exact_set": 0.90, "out_of_library_ok": 0.90, "clean_false_positives": 0}
+
+
+def _rss_mb() -> float:
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * resource.getpagesize() / 2**20
+    except OSError:  # pragma: no cover - non-Linux
+        return float("nan")
+
+
+def _child(conn, csv_path: str, out_dir: str) -> None:  # pragma: no cover - runs in a child process
+    try:
+        from plant.calibration.report import calibrate
+
+        rss0 = _rss_mb()
+        ru0 = resource.getrusage(resource.RUSAGE_SELF)
+        cpu0 = ru0.ru_utime + ru0.ru_stime
+        t0 = time.perf_counter()
+        rep = calibrate(csv_path, out_dir, plots=False)
+        wall = time.perf_counter() - t0
+        ru = resource.getrusage(resource.RUSAGE_SELF)
+        peak = ru.ru_maxrss / 1024.0
+        conn.send({"ok": True, "wall_s": wall, "cpu_s": ru.ru_utime + ru.ru_stime - cpu0, "peak_rss_mb": peak, "rss_start_mb": rss0,
+                   "effects": [{"kind": e["kind"], "params": e["params"]} for e in rep["effects"]],
+                   "unexplained": rep["unexplained"], "conclusion": rep["conclusion"],
+                   "competition": rep.get("competition", [])})
+    except Exception as exc:  # report, do not hang the parent
+        conn.send({"ok": False, "error": f"{type(exc).__name__}: {exc}"})
+    finally:
+        conn.close()
+
+
+def _calibrate_isolated(csv_path: Path, out_dir: Path) -> dict[str, Any]:
+    ctx = mp.get_context("fork")
+    a, b = ctx.Pipe(duplex=False)
+    p = ctx.Process(target=_child, args=(b, str(csv_path), str(out_dir)))
+    p.start()
+    b.close()
+    try:
+        res = a.recv()
+    except EOFError:
+        res = {"ok": False, "error": "calibration process died (killed, out of memory?)"}
+    p.join()
+    if p.exitcode not in (0, None) and res.get("ok"):
+        res = {"ok": False, "error": f"exit code {p.exitcode}"}
+    return res
+
+
+def _param_errors(kind: str, named: dict[str, Any], truth: dict[str, float]) -> dict[str, float]:
+    out = {}
+    for name in KEY_PARAMS.get(kind, {}):
+        if name in truth and name in named:
+            out[name] = abs(float(named[name]) - truth[name]) / abs(truth[name])
+    return out
+
+
+def score(records: list[dict[str, Any]]) -> dict[str, Any]:
+    """Aggregate per-record outcomes into the benchmark figures (see the module docstring)."""
+    rows = list(LIBRARY_KINDS) + ["clean"] + list(OUT_OF_LIBRARY)
+    cols = list(LIBRARY_KINDS) + ["none"]
+    conf = {r: {c: 0 for c in cols} for r in rows}
+    n_exact = 0
+    clean_fp = []
+    ool_ok = []
+    ool_unexplained = 0
+    n_clean = n_ool = 0
+    errors: dict[str, dict[str, list[float]]] = {k: {p: [] for p in v} for k, v in KEY_PARAMS.items()}
+    for r in records:
+        named = set(r["named"])
+        hidden_lib = {h for h in r["hidden"] if h in LIBRARY_KINDS}
+        hidden_rows = list(r["hidden"]) or ["clean"]
+        for h in hidden_rows:
+            for n in (sorted(named) or ["none"]):
+                conf[h][n] += 1
+        r["exact"] = named == hidden_lib
+        n_exact += r["exact"]
+        if not r["hidden"]:
+            n_clean += 1
+            if named:
+                clean_fp.append(r["seed"])
+        if any(h in OUT_OF_LIBRARY for h in r["hidden"]):
+            n_ool += 1
+            ok = not named
+            ool_ok.append(ok)
+            ool_unexplained += bool(r["unexplained"])
+        for k, errs in r.get("param_errors", {}).items():
+            for p, e in errs.items():
+                errors[k][p].append(e)
+    n = len(records)
+    key = {}
+    for k, ps in errors.items():
+        for p, es in ps.items():
+            tol = KEY_PARAMS[k][p]
+            key[f"{k}.{p}"] = {
+                "n": len(es), "median_rel_err": float(np.median(es)) if es else None,
+                "max_rel_err": float(np.max(es)) if es else None, "tolerance": tol,
+                "within_tolerance": (int(sum(e <= tol for e in es)) if tol is not None else None),
+            }
+    walls = [r["wall_s"] for r in records if r.get("wall_s") is not None]
+    peaks = [r["peak_rss_mb"] for r in records if r.get("peak_rss_mb") is not None]
+    per_sample_s = [r["wall_s"] / r["n_samples"] for r in records if r.get("wall_s") is not None]
+    cpus = [r["cpu_s"] for r in records if r.get("cpu_s") is not None]
+    return {
+        "n_records": n,
+        "exact_set_accuracy": n_exact / n if n else None,
+        "n_exact": n_exact,
+        "clean": {"n": n_clean, "false_positive_seeds": clean_fp},
+        "out_of_library": {"n": n_ool, "ok": int(sum(ool_ok)), "ok_fraction": (sum(ool_ok) / n_ool) if n_ool else None,
+                           "with_unexplained_entry": ool_unexplained},
+        "confusion": {"rows": rows, "cols": cols, "counts": conf},
+        "key_parameters": key,
+        "time": {"median_s": float(np.median(walls)) if walls else None, "max_s": max(walls) if walls else None,
+                 "median_us_per_sample": 1e6 * float(np.median(per_sample_s)) if per_sample_s else None,
+                 "median_cpu_s": float(np.median(cpus)) if cpus else None},
+        "memory": {"median_peak_rss_mb": float(np.median(peaks)) if peaks else None,
+                   "max_peak_rss_mb": max(peaks) if peaks else None},
+        "failures": [r["seed"] for r in records if not r.get("ok", True)],
+    }
+
+
+def run_benchmark(out_dir: str | Path, seeds: tuple[int, ...] | list[int] = DEFAULT_SEEDS, long_samples: int | None = None,
+                  progress=print) -> dict[str, Any]:
+    """Generate, calibrate and score; write ``benchmark.json`` and ``benchmark.md`` into ``out_dir``.
+
+    Parameters
+    ----------
+    out_dir : path
+    seeds : sequence of int
+        One record per seed (:func:`plant.calibration.bench_records.make_record`).
+    long_samples : int, optional
+        Also calibrate one long record of this many samples (memory/time of hour-long logs).
+    progress : callable
+        Called with one line per record.
+
+    Returns
+    -------
+    dict
+        The content of ``benchmark.json``.
+
+    Raises
+    ------
+    ValueError
+        The generator's kind list differs from the ``plant.effects`` registry.
+    """
+    if set(LIBRARY_KINDS) != set(EFFECT_KINDS):
+        raise ValueError(f"benchmark generator kinds {sorted(LIBRARY_KINDS)} differ from plant.effects {sorted(EFFECT_KINDS)}")
+    out = Path(out_dir)
+    (out / "records").mkdir(parents=True, exist_ok=True)
+    records = []
+    for seed in seeds:
+        rec = make_record(int(seed))
+        csv_path = out / "records" / f"seed_{seed:03d}.csv"
+        rec.write_csv(csv_path)
+        res = _calibrate_isolated(csv_path, out / "runs" / f"seed_{seed:03d}")
+        entry: dict[str, Any] = {"seed": int(seed), "hidden": list(rec.hidden), "truth": rec.truth,
+                                 "n_samples": int(rec.t_s.size), "fs_hz": rec.meta["fs_log_hz"],
+                                 "trajectory": rec.meta["trajectory"], "ok": res["ok"]}
+        if res["ok"]:
+            entry["named"] = [e["kind"] for e in res["effects"]]
+            entry["effects"] = res["effects"]
+            entry["unexplained"] = res["unexplained"]
+            entry["conclusion"] = res["conclusion"]
+            entry["wall_s"] = res["wall_s"]
+            entry["cpu_s"] = res["cpu_s"]
+            entry["peak_rss_mb"] = res["peak_rss_mb"]
+            entry["param_errors"] = {}
+            for e in res["effects"]:
+                if e["kind"] in rec.truth:
+                    entry["param_errors"][e["kind"]] = _param_errors(e["kind"], e["params"], rec.truth[e["kind"]])
+        else:
+            entry["named"] = []
+            entry["unexplained"] = []
+            entry["error"] = res["error"]
+        records.append(entry)
+        progress(f"seed {seed:3d} hidden {','.join(rec.hidden) or 'clean':40s} named {','.join(entry['named']) or '-':40s} "
+                 f"{'OK ' if set(entry['named']) == {h for h in rec.hidden if h in LIBRARY_KINDS} else 'BAD'} "
+                 f"{entry.get('wall_s', float('nan')):.1f} s {entry.get('error', '')}")
+    summary = score(records)
+    result: dict[str, Any] = {"seeds": [int(s) for s in seeds], "targets": TARGETS, "summary": summary, "records": records}
+    if long_samples:
+        rec = make_record(int(seeds[0]) if seeds else 0, n_samples=int(long_samples))
+        csv_path = out / "records" / f"long_{long_samples}.csv"
+        rec.write_csv(csv_path)
+        res = _calibrate_isolated(csv_path, out / "runs" / "long")
+        n = int(rec.t_s.size)
+        lr = {"n_samples": n, "hidden": list(rec.hidden), "fs_hz": rec.meta["fs_log_hz"], "ok": res["ok"]}
+        if res["ok"]:
+            lr.update({"wall_s": res["wall_s"], "cpu_s": res["cpu_s"], "peak_rss_mb": res["peak_rss_mb"], "us_per_sample": 1e6 * res["wall_s"] / n,
+                       "peak_bytes_per_sample": res["peak_rss_mb"] * 2**20 / n, "named": [e["kind"] for e in res["effects"]]})
+        else:
+            lr["error"] = res["error"]
+        result["long_record"] = lr
+        progress(f"long record: {lr}")
+    (out / "benchmark.json").write_text(json.dumps(_clean(result), indent=2))
+    (out / "benchmark.md").write_text(markdown(result))
+    return result
+
+
+def _clean(x):
+    if isinstance(x, dict):
+        return {str(k): _clean(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_clean(v) for v in x]
+    if isinstance(x, (np.floating, np.integer)):
+        x = x.item()
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def _pct(x) -> str:
+    return "—" if x is None else f"{100 * x:.1f} %"
+
+
+def markdown(result: dict[str, Any]) -> str:
+    """``benchmark.md``: the summary, the confusion matrix and the per-record table."""
+    s = result["summary"]
+    L = ["# Calibration benchmark (independent generator)", "",
+         f"Seeds: {result['seeds'][0]}…{result['seeds'][-1]} ({s['n_records']} records).", "",
+         f"- exact set of effects named right: **{s['n_exact']}/{s['n_records']} = {_pct(s['exact_set_accuracy'])}** (target ≥ 90 %)",
+         f"- clean records with an invented effect: **{len(s['clean']['false_positive_seeds'])}/{s['clean']['n']}** "
+         f"(target 0){' — seeds ' + str(s['clean']['false_positive_seeds']) if s['clean']['false_positive_seeds'] else ''}",
+         f"- out-of-library records with no library kind named: **{s['out_of_library']['ok']}/{s['out_of_library']['n']} = "
+         f"{_pct(s['out_of_library']['ok_fraction'])}** (target ≥ 90 %); with an `unexplained` entry: "
+         f"{s['out_of_library']['with_unexplained_entry']}",
+         f"- time per record: median {s['time']['median_s']:.1f} s, max {s['time']['max_s']:.1f} s; "
+         f"{s['time']['median_us_per_sample']:.0f} µs per sample (median)" if s["time"]["median_s"] is not None else "- time: —",
+         f"- peak RSS per calibration (child process): median {s['memory']['median_peak_rss_mb']:.0f} MB, "
+         f"max {s['memory']['max_peak_rss_mb']:.0f} MB" if s["memory"]["median_peak_rss_mb"] is not None else "- memory: —",
+         ]
+    if s["failures"]:
+        L.append(f"- runs that failed: seeds {s['failures']}")
+    if "long_record" in result:
+        lr = result["long_record"]
+        if lr.get("ok"):
+            L.append(f"- long record: {lr['n_samples']} samples at {lr['fs_hz']:g} Hz: {lr['wall_s']:.0f} s wall "
+                     f"({lr['cpu_s']:.0f} s CPU), "
+                     f"peak RSS {lr['peak_rss_mb']:.0f} MB ({lr['us_per_sample']:.1f} µs and {lr['peak_bytes_per_sample']:.0f} B per sample)")
+        else:
+            L.append(f"- long record: failed ({lr.get('error')})")
+    L += ["", "## Confusion matrix (hidden × named)", ""]
+    c = s["confusion"]
+    L.append("| hidden \\ named | " + " | ".join(c["cols"]) + " |")
+    L.append("|---" * (len(c["cols"]) + 1) + "|")
+    for r in c["rows"]:
+        if sum(c["counts"][r].values()):
+            L.append(f"| {r} | " + " | ".join(str(c["counts"][r][k] or "") for k in c["cols"]) + " |")
+    L += ["", "## Key parameters (correctly named kinds)", "", "| parameter | n | median error | max error | tolerance | within |",
+          "|---|---|---|---|---|---|"]
+    for k, v in s["key_parameters"].items():
+        if v["n"]:
+            tol = "—" if v["tolerance"] is None else f"{100 * v['tolerance']:g} %"
+            L.append(f"| {k} | {v['n']} | {_pct(v['median_rel_err'])} | {_pct(v['max_rel_err'])} | {tol} | "
+                     f"{'—' if v['within_tolerance'] is None else v['within_tolerance']} |")
+    L += ["", "## Records", "", "| seed | hidden | named | exact | unexplained | fs [Hz] | samples | trajectory | time [s] | peak RSS [MB] |",
+          "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in result["records"]:
+        un = "; ".join(f"{u['domain']} {u['share_pct']:.0f} %" for u in r.get("unexplained", []))
+        L.append(f"| {r['seed']} | {', '.join(r['hidden']) or 'clean'} | {', '.join(r['named']) or '—'} | "
+                 f"{'yes' if r.get('exact') else 'no'} | {un} | {r['fs_hz']:g} | {r['n_samples']} | {r['trajectory']} | "
+                 f"{r.get('wall_s', float('nan')):.1f} | {r.get('peak_rss_mb', float('nan')):.0f} |")
+    return "\n".join(L) + "\n"
+
+
+def default_seeds() -> tuple[int, ...]:
+    """The fixed seed list of the full benchmark."""
+    return DEFAULT_SEEDS
+
+
+def ci_seeds() -> tuple[int, ...]:
+    """The fixed subset CI runs."""
+    return CI_SEEDS

@@ -1,0 +1,108 @@
+"""The calibration benchmark: an independent generator, and the loop scored on a fixed subset of it.
+
+The CI subset (:data:`plant.calibration.bench_records.CI_SEEDS`, fixed before the loop was
+changed) holds two clean records, every library kind alone, a pair and two out-of-library
+records. The targets asserted are the issue's, on that subset: exact set ≥ 90 %, no effect on
+clean records, no library kind named on out-of-library records, key parameters within 3 %
+(period, frequency) and 30 % (amplitudes, backlash width, asymmetric viscous coefficients).
+"""
+
+import ast
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import plant.calibration.bench_records as bench_records
+from plant.calibration.bench_records import CI_SEEDS, LIBRARY_KINDS, OUT_OF_LIBRARY, make_record, plan
+from plant.effects import EFFECT_KINDS
+
+ALLOWED_IMPORTS = {"__future__", "math", "dataclasses", "numpy", "numba"}
+
+
+def test_generator_imports_nothing_from_plant():
+    """The independent generator imports only math, dataclasses, numpy and numba — nothing of plant/."""
+    tree = ast.parse(Path(bench_records.__file__).read_text())
+    found = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found |= {a.name.split(".")[0] for a in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            assert node.level == 0, "relative import in the independent generator"
+            found.add(node.module.split(".")[0])
+    assert found <= ALLOWED_IMPORTS, found
+    assert "plant" not in found
+
+
+def test_generator_kinds_match_registry_and_plan_covers_them():
+    """The generator's kind names equal the plant.effects registry; the plan has ≥ 60 records with
+    every kind alone, pairs, clean records and every out-of-library effect."""
+    assert set(LIBRARY_KINDS) == set(EFFECT_KINDS)
+    p = plan()
+    assert len(p) >= 60
+    for k in LIBRARY_KINDS:
+        assert (k,) in p
+    assert any(len(h) == 2 for h in p)
+    assert p.count(()) >= 5
+    for k in OUT_OF_LIBRARY:
+        assert (k,) in p
+
+
+def test_generator_measurement_chain():
+    """Records are quantised positions, uniformly sampled at 200 Hz–1 kHz, with velocity from
+    differenced counts, reproducible from the seed."""
+    a, b = make_record(3), make_record(3)
+    assert np.array_equal(a.torque_nm, b.torque_nm)
+    res = a.meta["resolution_rad"]
+    counts = a.position_rad / res
+    assert np.allclose(counts, np.round(counts), atol=1e-6)
+    dt = np.diff(a.t_s)
+    assert np.allclose(dt, dt[0]) and 200 <= 1 / dt[0] <= 1000 + 1e-6
+    assert np.allclose(a.velocity_rad_s[1:], np.diff(a.position_rad) / dt[0])
+
+
+@pytest.fixture(scope="module")
+def ci_benchmark(tmp_path_factory):
+    from plant.calibration.benchmark import run_benchmark
+
+    out = tmp_path_factory.mktemp("bench")
+    run_benchmark(out, CI_SEEDS, progress=lambda line: None)
+    return out, json.loads((out / "benchmark.json").read_text())
+
+
+def test_benchmark_writes_its_figures(ci_benchmark):
+    """benchmark.json/benchmark.md carry the confusion matrix, accuracy, false positives, key
+    parameters and time/memory per record."""
+    out, res = ci_benchmark
+    s = res["summary"]
+    for key in ("exact_set_accuracy", "confusion", "clean", "out_of_library", "key_parameters", "time", "memory"):
+        assert key in s
+    assert s["failures"] == []
+    for r in res["records"]:
+        assert r["wall_s"] > 0 and r["peak_rss_mb"] > 0
+    assert "Confusion matrix" in (out / "benchmark.md").read_text()
+
+
+def test_benchmark_no_invention_on_ci_subset(ci_benchmark):
+    """On the CI subset no effect is invented on clean records and no library kind is named on the
+    out-of-library records (issue 7 targets: 0 false positives; ≥ 90 % of out-of-library records)."""
+    _, res = ci_benchmark
+    s = res["summary"]
+    assert s["clean"]["n"] >= 2 and s["clean"]["false_positive_seeds"] == []
+    assert s["out_of_library"]["n"] >= 2 and s["out_of_library"]["ok_fraction"] >= 0.90
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "issue 7 targets not reached (measured, docs/calibration.md 'Benchmark'): on the CI subset the exact set is "
+    "named right on about 3 of 4 records (target 90 %); misses are barely excited pre-sliding, a backlash record "
+    "that also gets a gravity term, and a pair whose asymmetric friction is not found"))
+def test_benchmark_targets_on_ci_subset(ci_benchmark):
+    """The issue's exact-set and key-parameter targets on the fixed CI subset."""
+    _, res = ci_benchmark
+    s = res["summary"]
+    bad = [(r["seed"], r["hidden"], r["named"]) for r in res["records"] if not r["exact"]]
+    assert s["exact_set_accuracy"] >= 0.90, bad
+    for name, k in s["key_parameters"].items():
+        if k["n"] and k["tolerance"] is not None:
+            assert k["within_tolerance"] == k["n"], (name, k)
