@@ -194,7 +194,8 @@ class AxisController(Board):
         self.safety = safety
         self.fault_clear_hold_us = int(safety.fault_clear_hold_us)
         self.slew_arcsec_s = SLEW_ARCSEC_S
-        self.overspeed_arcsec_s = SLEW_ARCSEC_S * safety.overspeed_factor
+        self.max_rate_arcsec_s = safety.max_rate_arcsec_s
+        self.overspeed_arcsec_s = safety.max_rate_arcsec_s * safety.overspeed_factor
         self._brake_step = safety.brake_decel_arcsec_s2 * self.tick_us * 1e-6   # ″/s per tick
 
         self.pwm = Pwm(2, on_duties)
@@ -502,7 +503,7 @@ class AxisController(Board):
             return
         if cmd == AxisMode.VELOCITY:
             rate = sign * c.value / 1000.0
-            if abs(rate) > self.slew_arcsec_s:
+            if abs(rate) > self.max_rate_arcsec_s:
                 self.refuse(REFUSE_RATE, cmd)
                 return
         else:

@@ -50,6 +50,15 @@ MODE_SEND_POSITION = 0b000111   # EnDat "encoder send position values" (mode bit
 POSITION_BITS = 29              # RCN 829, §3.2
 
 
+def frame_bits(position_bits: int = POSITION_BITS) -> int:
+    """Bits of one position frame: start bit, 2 alarm bits, the position, the CRC."""
+    return 1 + 2 + position_bits + CRC_BITS
+
+
+#: Bits of the RCN 829's position frame (37).
+FRAME_BITS = frame_bits()
+
+
 def crc5(bits: Sequence[int]) -> int:
     """EnDat-2.2-style 5-bit CRC of a bit sequence (in transmission order).
 
@@ -263,7 +272,7 @@ class EnDatEncoder:
                  position_bits: int = POSITION_BITS) -> None:
         self.read_position_word = read_position_word
         self.position_bits = position_bits
-        self.frame_bits = 1 + 2 + position_bits + CRC_BITS
+        self.frame_bits = frame_bits(position_bits)
         self._flip_mask = 0       # bits to invert in the next frame (fault injection)
         self.alarm = False
 

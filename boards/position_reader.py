@@ -225,7 +225,7 @@ class PositionReader(Board):
         a = self.angle_deg
         h = self.hysteresis_arcsec / 3600.0
         sf = self.safety
-        # a rate above twice the slew rate is a position jump, not motion (documented)
+        # a rate above twice the maximum commanded rate is a position jump, not motion (documented)
         cap = sf.max_zone_rate_arcsec_s
         v = max(-cap, min(cap, self.rate_arcsec_s))
         tol = sf.brake_stop_tol_arcsec_s

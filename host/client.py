@@ -116,6 +116,10 @@ class HostClient:
     arcsec_per_count: dict = field(default_factory=dict)
 
     BOOT_US = 20_000       #: wait after power-on before the health-check PING [µs] (assumed)
+    #: A board whose heartbeat (1 s period) has not arrived for this long is LOST [µs]: 2.5
+    #: periods (assumed; CiA 301 practice is a consumer time of 1.5–3 producer periods).
+    HEARTBEAT_TIMEOUT_US = 2_500_000
+    HEARTBEAT_CHECK_US = 100_000   #: how often the host checks [µs] (a lost board is logged ≤ 0.1 s late)
     POWER_ON_US = 100_000  #: time the boards have to answer the PING [µs] (assumed)
     QEI_WRAP = 1 << 24
 
@@ -130,6 +134,8 @@ class HostClient:
         self._errors: list[str] = []
         self._last_state: dict[int, int] = {}
         self._last_mode: dict[str, int] = {}
+        self.lost: set[int] = set()          # nodes whose heartbeat stopped (the report's LOST)
+        self._watch_event = None
         # frame type -> handler, built once (not looked up by name for every frame)
         self._handlers = {
             P.AxisStatus: self._on_AxisStatus, P.AxisAux: self._on_AxisAux, P.Position: self._on_Position,
@@ -211,12 +217,32 @@ class HostClient:
     def _on_Heartbeat(self, cob_id: int, f, now: int) -> None:
         node = P.node_of(cob_id)
         self.heartbeats[node] = (now, f.state, f.malformed_frames)
+        if node in self.lost:
+            self.lost.discard(node)
+            self._error(now, NODE_NAMES.get(node, str(node)), "heartbeat-back", "the board answers again")
         if self._last_state.get(node) != f.state:
             if self.logs:
                 self.logs.status(now, node, NODE_NAMES.get(node, str(node)), "state",
                                  f"{P.NodeState(f.state).name} reset_cause={P.ResetCause(f.reset_cause).name} "
                                  f"malformed={f.malformed_frames}")
             self._last_state[node] = f.state
+
+    def watch_heartbeats(self) -> None:
+        """Start checking every expected board's heartbeat (after the health check): a board
+        silent for :attr:`HEARTBEAT_TIMEOUT_US` is logged at once in ``errors.log`` as
+        ``heartbeat-lost`` and listed in :attr:`lost` (the report shows it LOST)."""
+        if self._watch_event is None:
+            self._watch_event = self.scheduler.call_every(self.HEARTBEAT_CHECK_US, self._check_heartbeats,
+                                                          priority=PRIO_HOST, owner="host-heartbeat-watch")
+
+    def _check_heartbeats(self, now: int) -> None:
+        for node in self.expected_nodes:
+            seen = self.heartbeats.get(node)
+            if node not in self.lost and seen is not None and now - seen[0] > self.HEARTBEAT_TIMEOUT_US:
+                self.lost.add(node)
+                self._error(now, NODE_NAMES.get(node, str(node)), "heartbeat-lost",
+                            f"no heartbeat for {(now - seen[0]) / 1e6:.2f} s (timeout "
+                            f"{self.HEARTBEAT_TIMEOUT_US / 1e6:.1f} s)")
 
     def _on_Fault(self, cob_id: int, f, now: int) -> None:
         node = P.node_of(cob_id)
@@ -267,6 +293,7 @@ class HostClient:
         if self.logs:
             self.logs.status(self.scheduler.now_us, P.NODE_HOST, "host", "health-check",
                              "ok" if not missing else "missing " + ",".join(missing))
+        self.watch_heartbeats()
         return Health(ok=not missing, answered=answered, missing=missing)
 
     def command_axis(self, axis: str, mode: str, direction: int = 1, rate_arcsec_s: float | None = None) -> float:

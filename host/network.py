@@ -93,6 +93,7 @@ class Telescope:
     removed: set = field(default_factory=set)
     hub: Rs232Hub | None = None
     serial_links: dict = field(default_factory=dict)
+    _can_snapshot: dict = field(default_factory=dict, repr=False)   # CAN registers at close()
 
     def advance_plants(self, now_us: int | None = None) -> None:
         """Advance every plant to ``now_us`` (default the scheduler's time)."""
@@ -150,6 +151,7 @@ class Telescope:
             "load_pct": round(s["load_pct"], 3), "peak_load_pct": round(s["peak_load_pct"], 3),
             "max_latency_us": {P.frame_name(k): v for k, v in s["max_latency_us"].items()},
             "frames_by_id": {P.frame_name(k): v for k, v in s["per_id"].items()},
+            "error_frames": s.get("error_frames", 0), "error_bits": s.get("error_bits", 0),
         }
 
     def board_summary(self) -> dict:
@@ -157,8 +159,11 @@ class Telescope:
         counters through ``report_counters()``."""
         out = {}
         for name, b in self.boards.items():
-            d = {"node": b.node_id, "malformed_frames": b.malformed_frames, "state": _state_name(b),
-                 "reset_cause": b.reset_cause, "resets": b.reset_count}
+            d = {"node": b.node_id, "malformed_frames": b.malformed_frames,
+                 # the host's view first: a board whose heartbeat stopped is LOST whatever it was
+                 "state": "LOST" if b.node_id in self.client.lost else _state_name(b),
+                 "reset_cause": b.reset_cause, "resets": b.reset_count,
+                 "can": self._can_snapshot.get(name) or _can_registers(b)}
             d.update(b.report_counters())
             if BOARDS[name][0].kind == "focus_controller":   # the plant's truth beside the firmware's count
                 d["plant_lost_halfsteps"] = self.focus_plant.lost_halfsteps
@@ -173,7 +178,10 @@ class Telescope:
         return self.hub.counters() if self.hub is not None else None
 
     def close(self) -> None:
-        """Shut every bus down and unregister the CAN channel (idempotent)."""
+        """Shut every bus down and unregister the CAN channel (idempotent). The boards' CAN
+        error registers are kept for the report (they live in the bus model)."""
+        if not self._can_snapshot:
+            self._can_snapshot.update({name: _can_registers(b) for name, b in self.boards.items()})
         self.client.close()
         if self.hub is not None:
             self.hub.close()
@@ -187,6 +195,11 @@ class Telescope:
 
 
 _AXIS_BOARD = {i.axis: name for name, (s, i) in BOARDS.items() if s.kind == "axis_controller"}
+
+
+def _can_registers(board) -> dict:
+    """TEC, REC and error state of a board's CAN controller (as its registers show them)."""
+    return {"tec": board.can.tec, "rec": board.can.rec, "error_state": board.can.error_state}
 
 
 def _state_name(board) -> str:

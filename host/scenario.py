@@ -27,10 +27,12 @@ from typing import Annotated, Any, Literal
 import yaml
 from pydantic import AfterValidator, BaseModel, PrivateAttr, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from boards.endat import FRAME_BITS as ENDAT_FRAME_BITS
 from boards.registry import BOARD_NAMES
+from boards.safety import DEFAULT_SAFETY
 from bus.errors import ConfigurationError
 from bus.units import check_counter_fraction
-from host.faults import FAULT_KINDS, FAULT_PARAMS, check_fault
+from host.faults import FAULT_KINDS, FAULT_PARAMS, FAULTS, check_fault
 from plant.params import ParameterError, PlantParameters, load_parameters
 
 __all__ = [
@@ -69,8 +71,18 @@ class ScenarioError(ConfigurationError):
         super().__init__(f"{where}: {key}: {problem}" if key else f"{where}: {problem}")
 
 
+#: Limits checked before anything runs (issue 11: a scenario that cannot finish must not start).
+#: Assumed: a scenario is a hand-written test plan; these are far above any in scenarios/.
+MAX_SCENARIO_BYTES = 1 << 20       # 1 MiB of YAML
+MAX_SEGMENTS = 10_000
+MAX_FAULTS = 10_000
+MAX_DURATION_S = 7 * 86_400.0      # a week of simulated time
+MAX_YAML_NODES = 200_000           # nodes of the YAML document (anchors/aliases refused outright)
+
+
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # non-finite numbers (.inf, .nan) are refused everywhere: they would fail half-way through a run
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class BusConfig(_Strict):
@@ -157,7 +169,8 @@ class Segment(_Strict):
     axis: Literal["ra", "dec", "both"] = "ra"
     mode: Literal["stop", "slew", "set", "guide", "fine", "track", "velocity", "open_loop"]
     direction: Literal[1, -1] = 1
-    rate_arcsec_s: float | None = Field(None, gt=0)
+    rate_arcsec_s: float | None = Field(None, gt=0, le=DEFAULT_SAFETY.max_rate_arcsec_s,
+                                        description="the firmware refuses faster (boards/safety.py)")
     duration_s: float = Field(gt=0, le=3600)
     settle_s: float = Field(0.0, ge=0)
     focus_halfsteps: int | None = None
@@ -180,11 +193,18 @@ class Fault(_Strict):
     applies to and its parameters: the fault table :data:`host.faults.FAULTS`. A new parameter
     is one field here and one name in :data:`host.faults.FAULT_PARAMS`."""
 
-    at_s: float = Field(ge=0)
+    at_s: float = Field(ge=0, allow_inf_nan=False)
     kind: Literal[FAULT_KINDS]  # the fault table of host/faults.py
-    board: Literal[BOARD_NAMES]  # the board registry (boards/registry.py)
-    bit: int | None = Field(None, ge=0, le=63)
+    board: Literal[BOARD_NAMES] | None = None  # the board registry (boards/registry.py)
+    bit: int | None = Field(None, ge=0, le=ENDAT_FRAME_BITS - 1, description="endat_bit_flip: bit of the frame")
     halfsteps: int | None = Field(None, ge=1, le=100_000, description="focus_stall: half-steps lost")
+    ids: list[Annotated[int, Field(ge=0, le=0x7FF)]] | None = Field(None, max_length=2048,
+                                                                    description="can_error/frame_loss: 11-bit ids (all if absent)")
+    probability: float | None = Field(None, gt=0, le=1, allow_inf_nan=False)
+    count: int | None = Field(None, ge=1, le=1_000_000)
+    duration_s: float | None = Field(None, gt=0, le=86_400, allow_inf_nan=False)
+    arbitration_id: int | None = Field(None, ge=0, le=0x7FF)
+    auto_recover: bool | None = None
 
     @model_validator(mode="after")
     def _check(self) -> "Fault":
@@ -204,8 +224,8 @@ class Scenario(_Strict):
     log: LogConfig = Field(default_factory=LogConfig)
     rs232: Rs232Config = Field(default_factory=Rs232Config)
     report: ReportConfig = Field(default_factory=ReportConfig)
-    faults: list[Fault] = Field(default_factory=list)
-    segments: list[Segment] = Field(min_length=1)
+    faults: list[Fault] = Field(default_factory=list, max_length=MAX_FAULTS)
+    segments: list[Segment] = Field(min_length=1, max_length=MAX_SEGMENTS)
     source_path: str = Field("<string>", exclude=True)
     #: (plant section, source path, parameters) resolved when the scenario was loaded, so the
     #: parameter file is read once; a copy with another plant section resolves again.
@@ -220,6 +240,19 @@ class Scenario(_Strict):
                 raise ValueError(f"duplicate segment name '{s.name}'")
             seen.add(s.name)
         return segs
+
+    @model_validator(mode="after")
+    def _check_faults(self) -> "Scenario":
+        total = self.duration_s
+        if total > MAX_DURATION_S:
+            raise ValueError(f"the segments last {total:.0f} s; at most {MAX_DURATION_S:.0f} s per run")
+        for i, f in enumerate(self.faults):
+            if f.at_s > total:
+                raise ValueError(f"faults[{i}].at_s = {f.at_s} s is after the end of the run ({total} s)")
+            if FAULTS[f.kind].sim_bus and self.bus.interface != "sim":
+                raise ValueError(f"faults[{i}]: {f.kind} needs the emulated bus model (bus.interface: sim), "
+                                 f"not {self.bus.interface}")
+        return self
 
     @property
     def duration_s(self) -> float:
@@ -253,6 +286,22 @@ def _dotted(loc: tuple) -> str:
     return s
 
 
+class _NoAliasLoader(yaml.SafeLoader):
+    """``yaml.SafeLoader`` that refuses anchors/aliases (a few lines of aliases can expand to
+    gigabytes: the "billion laughs") and documents of more than :data:`MAX_YAML_NODES` nodes."""
+
+    def compose_node(self, parent, index):
+        if self.check_event(yaml.AliasEvent):
+            ev = self.peek_event()
+            raise yaml.composer.ComposerError(None, None, "YAML aliases (*name) are not allowed in a scenario",
+                                              ev.start_mark)
+        self._nodes = getattr(self, "_nodes", 0) + 1
+        if self._nodes > MAX_YAML_NODES:
+            raise yaml.composer.ComposerError(None, None, f"more than {MAX_YAML_NODES} YAML nodes",
+                                              self.peek_event().start_mark)
+        return super().compose_node(parent, index)
+
+
 def parse_scenario(text: str, path: str = "<string>") -> Scenario:
     """Parse and validate scenario YAML text.
 
@@ -273,12 +322,15 @@ def parse_scenario(text: str, path: str = "<string>") -> Scenario:
         YAML syntax error, unknown key, wrong type or out-of-range value; the message names the
         file, the line and the dotted key.
     """
+    if len(text.encode("utf-8", "replace")) > MAX_SCENARIO_BYTES:
+        raise ScenarioError(path, None, "", f"file is larger than {MAX_SCENARIO_BYTES} bytes (the limit for a scenario)")
     try:
-        node = yaml.compose(text, Loader=yaml.SafeLoader)
-        data = yaml.safe_load(text)
+        node = yaml.compose(text, Loader=_NoAliasLoader)
+        data = yaml.load(text, Loader=_NoAliasLoader)  # noqa: S506 - a SafeLoader subclass
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
-        raise ScenarioError(path, mark.line + 1 if mark else None, "", f"YAML syntax: {exc}") from None
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise ScenarioError(path, mark.line + 1 if mark else None, "", f"YAML syntax: {problem}") from None
     if not isinstance(data, dict):
         raise ScenarioError(path, 1, "", "expected a mapping at the top level (name, segments, ...)")
     lines = _line_index(node) if node is not None else {}

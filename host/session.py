@@ -167,16 +167,26 @@ class Session:
 
     # -- closing -----------------------------------------------------------------------------
     def _close_files(self) -> None:
+        """Close every log even if one fails (a full disk); the first error is raised after."""
+        first: BaseException | None = None
         for f in (self.logs, self.candump):
             if f is not None:
-                f.close()
+                try:
+                    f.close()
+                except BaseException as exc:  # noqa: BLE001 - re-raised below, after the others
+                    first = first or exc
+        if first is not None:
+            raise first
 
     def close(self) -> None:
-        """Close the logs and shut the network down (idempotent)."""
-        self._close_files()
-        tel = getattr(self, "tel", None)
-        if tel is not None:
-            tel.close()
+        """Close the logs and shut the network down (idempotent; the network is shut down even
+        when closing a log fails, and that error is raised after)."""
+        try:
+            self._close_files()
+        finally:
+            tel = getattr(self, "tel", None)
+            if tel is not None:
+                tel.close()
 
     def files(self) -> list[Path]:
         """Log files written (the four logs, ``candump.log``, ``telemetry.log``)."""

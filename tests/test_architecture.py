@@ -98,7 +98,8 @@ def test_registry_agrees_with_the_protocol():
 def test_scenario_names_come_from_the_registry_and_the_fault_table():
     """The scenario schema's board and fault names are the registry's and the fault table's."""
     ann = Fault.model_fields
-    assert ann["board"].annotation.__args__ == R.BOARD_NAMES
+    board_names, none = ann["board"].annotation.__args__       # Literal[BOARD_NAMES] | None
+    assert board_names.__args__ == R.BOARD_NAMES and none is type(None)
     assert ann["kind"].annotation.__args__ == FAULT_KINDS == tuple(FAULTS)
 
 

@@ -10,6 +10,7 @@ import math
 import can
 import pytest
 
+
 from boards.axis_controller import DEFAULT_KI, DEFAULT_KP, SLEW_ARCSEC_S, AxisController, AxisMode
 from boards.safety import RECOMMENDED_HOST_WATCHDOG_US, SafetyLimits
 from bus import protocol as p
@@ -81,14 +82,19 @@ def test_stop_all_from_slew_is_reached_at_any_gain_in_the_band(scale_kp, scale_k
 
 
 # ------------------------------------------------------------------ defect 2: rate, spoofed LIMIT
-def test_velocity_above_the_slew_rate_is_refused():
-    """VELOCITY 7300″/s > slew 7199.8″/s: refused (reason 2), mode unchanged."""
+def test_velocity_above_the_maximum_rate_is_refused():
+    """VELOCITY 10 801″/s > the 3°/s maximum (the highest rate the paper ran, §4): refused
+    (reason 2), mode unchanged; 3°/s itself and the slew rate are accepted."""
     s, bus, plant, ax = make()
-    command(bus, p.AxisCommand.VELOCITY, 1, 7_300_000)
+    command(bus, p.AxisCommand.VELOCITY, 1, 10_801_000)
     assert ax.mode == AxisMode.STOP and ax.setpoint_arcsec_s == 0.0
     assert faults(bus)[-1].detail == (2 << 8) | p.AxisCommand.VELOCITY
+    command(bus, p.AxisCommand.VELOCITY, 1, 2**31 - 1)              # the largest value the frame carries
+    assert ax.mode == AxisMode.STOP and ax.setpoint_arcsec_s == 0.0
     command(bus, p.AxisCommand.VELOCITY, -1, int(SLEW_ARCSEC_S * 1000))
     assert ax.mode == AxisMode.VELOCITY
+    command(bus, p.AxisCommand.VELOCITY, 1, 10_800_000)
+    assert ax.mode == AxisMode.VELOCITY and ax.setpoint_arcsec_s == 10_800.0
 
 
 def test_a_single_spoofed_limit_frame_expires():
@@ -274,13 +280,19 @@ def test_reader_reporting_invalid_stops_the_axis_and_the_fault_clears_later():
 
 
 def test_open_loop_overspeed_is_braked_and_reported():
-    """OPEN_LOOP at full duty drives the toy axis past 1.5 × slew: braking stop, FAULT OVERSPEED."""
-    s, bus, plant, ax = make()
+    """OPEN_LOOP at full duty drives the toy axis past overspeed_factor × the maximum rate:
+    braking stop, FAULT OVERSPEED. (The toy drive tops out near 14 700″/s, under 1.5 × the
+    default 3°/s maximum, so the test sets the maximum to the slew rate.)"""
+    safety = SafetyLimits(max_rate_arcsec_s=SLEW_ARCSEC_S)
+    s, bus, plant, ax = make(safety=safety)
     command(bus, p.AxisCommand.OPEN_LOOP, 1, 32767)          # toy plant: 19 550″/s at full duty
-    s.run_until(2_000_000)
+    peak = [0.0]
+    s.call_every(5_000, lambda now: peak.__setitem__(0, max(peak[0], abs(plant.omega))))
+    s.run_until(6_000_000)
     assert ax.mode == AxisMode.STOP and abs(plant.omega) < 50.0
     f = [x for x in faults(bus) if x.code == p.FaultCode.OVERSPEED]
-    assert len(f) == 1 and f[0].detail > 1.5 * SLEW_ARCSEC_S
+    limit = safety.overspeed_factor * safety.max_rate_arcsec_s
+    assert len(f) == 1 and f[0].detail > limit and peak[0] < 19_550
 
 
 def test_a_flood_of_malformed_frames_is_counted_but_faults_are_rate_limited():

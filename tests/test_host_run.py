@@ -156,3 +156,32 @@ def test_cli_reports_bad_scenario_in_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and f"{p}:3: segments[0].mode" in err
     assert not out.exists()
+
+
+def test_sigterm_closes_every_log_in_whole_lines(tmp_path):
+    """SIGTERM during a run is handled like SIGINT: exit 143, the four logs and candump.log end
+    in whole lines and hold what was logged up to the signal (issue 11, defect 7)."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    scen = tmp_path / "long.yaml"
+    scen.write_text("name: long\nsegments:\n  - {name: t, axis: ra, mode: track, duration_s: 600}\n")
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "host.cli", "run", str(scen), "--out", str(out), "--quiet"],
+                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:          # wait until the run is logging frames
+        cd = out / "candump.log"
+        if cd.exists() and cd.stat().st_size > 200_000:
+            break
+        time.sleep(0.2)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 143, err
+    assert "terminated" in err
+    for name in ("candump.log", "commands.log", "status.log", "sensor.log", "errors.log"):
+        text = (out / name).read_text()
+        assert text and text.endswith("\n"), name
+    assert (out / "candump.log").stat().st_size > 200_000

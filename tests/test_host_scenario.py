@@ -106,3 +106,93 @@ def test_missing_file():
     """A scenario path that does not exist gives a one-line error naming it."""
     with pytest.raises(ScenarioError, match="nope.yaml"):
         load_scenario("nope.yaml")
+
+
+# ------------------------------------------------------------------ issue 11: nothing that can fail mid-run passes
+_BASE = "name: t\nsegments:\n  - {name: a, axis: ra, mode: track, duration_s: 1}\n"
+
+
+@pytest.mark.parametrize("extra,where", [
+    ("controller: {ra: {kp: .inf}}\n", "controller.ra.kp"),
+    ("faults: [{at_s: .inf, kind: board_reset, board: ra-axis}]\n", "faults[0].at_s"),
+    ("faults: [{at_s: 0.5, kind: endat_bit_flip, board: ra-reader, bit: 63}]\n", "faults[0].bit"),
+    ("faults: [{at_s: 0.5, kind: endat_bit_flip, board: ra-axis}]\n", "faults[0]"),
+    ("faults: [{at_s: 5, kind: board_reset, board: ra-axis}]\n", "after the end of the run"),
+    ("faults: [{at_s: 0.5, kind: host_loss, board: ra-axis}]\n", "faults[0]"),
+    ("faults: [{at_s: 0.5, kind: bus_off}]\n", "needs board"),
+    ("faults: [{at_s: 0.5, kind: can_error, probability: 1.5}]\n", "faults[0].probability"),
+    ("faults: [{at_s: 0.5, kind: can_error, ids: [2048]}]\n", "faults[0].ids"),
+    ("bus: {interface: virtual}\nfaults: [{at_s: 0.5, kind: frame_loss}]\n", "bus.interface: sim"),
+])
+def test_validation_refuses_what_would_fail_mid_run(extra, where):
+    """Non-finite numbers, faults after the end, bits outside the EnDat frame, faults aimed at the
+    wrong board and bus faults off the emulated bus are refused at load, naming file and key."""
+    with pytest.raises(ScenarioError) as e:
+        parse_scenario(_BASE + extra, "s.yaml")
+    msg = str(e.value)
+    assert msg.startswith("s.yaml") and where in msg and "\n" not in msg
+
+
+def test_rate_above_the_firmware_maximum_is_refused():
+    """A VELOCITY segment faster than the firmware accepts (3°/s) is refused at load."""
+    with pytest.raises(ScenarioError, match=r"segments\[0\]\.rate_arcsec_s"):
+        parse_scenario("name: t\nsegments:\n  - {name: a, axis: ra, mode: velocity, rate_arcsec_s: 10801, "
+                       "duration_s: 1}\n", "s.yaml")
+
+
+def test_yaml_alias_bomb_is_refused_at_once():
+    """An alias bomb (the 'billion laughs') is refused before it expands, on one line."""
+    bomb = "a: &a [x, x, x, x, x, x, x, x, x]\n" + "".join(
+        f"{c}: &{c} [*{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}]\n"
+        for p, c in zip("abcdefghi", "bcdefghij")) + _BASE
+    with pytest.raises(ScenarioError, match="aliases") as e:
+        parse_scenario(bomb, "bomb.yaml")
+    assert "\n" not in str(e.value)
+
+
+def test_oversized_scenarios_are_refused():
+    """More segments or bytes than the documented limits are refused before validation."""
+    from host.scenario import MAX_SCENARIO_BYTES, MAX_SEGMENTS
+
+    segs = "".join(f"  - {{name: s{i}, axis: ra, mode: track, duration_s: 1}}\n" for i in range(MAX_SEGMENTS + 1))
+    with pytest.raises(ScenarioError):
+        parse_scenario("name: t\nsegments:\n" + segs, "big.yaml")
+    with pytest.raises(ScenarioError, match="larger than"):
+        parse_scenario(_BASE + "#" * MAX_SCENARIO_BYTES, "big.yaml")
+
+
+def test_bus_fault_kinds_run_from_a_scenario(tmp_path):
+    """can_error, frame_loss, bus_off, host_loss and reader_loss, given in a scenario, reach the
+    bus model and boards: error frames counted, the board off the bus, the host silent."""
+    from host.runner import run_scenario
+
+    text = _BASE.replace("duration_s: 1", "duration_s: 1.5") + (
+        "faults:\n"
+        "  - {at_s: 0.2, kind: can_error, ids: [0x181], count: 3}\n"
+        "  - {at_s: 0.3, kind: frame_loss, board: dec-axis, duration_s: 0.1}\n"
+        "  - {at_s: 0.4, kind: bus_off, board: focus}\n"
+        "  - {at_s: 0.5, kind: reader_loss, board: dec-reader}\n"
+        "  - {at_s: 1.0, kind: host_loss, duration_s: 0.2}\n")
+    res = run_scenario(parse_scenario(text, str(tmp_path / "s.yaml")), tmp_path / "out", plots=False)
+    errors = (tmp_path / "out" / "errors.log").read_text()
+    for kind in ("can_error", "frame_loss", "bus_off", "reader_loss", "host_loss"):
+        assert f"injected-fault {kind}" in errors or kind in errors, kind
+    assert res.report["bus_stats"].get("error_frames", 0) >= 3
+
+
+def test_a_removed_board_is_logged_lost_and_reported_lost(tmp_path):
+    """A board that loses power is logged at once (≤ timeout + check period) in errors.log as
+    heartbeat-lost, and the report shows it LOST, not OPERATIONAL (issue 11, defect 3)."""
+    from host.client import HostClient
+    from host.runner import run_scenario
+
+    text = _BASE.replace("duration_s: 1", "duration_s: 5") + "faults: [{at_s: 1.0, kind: reader_loss, board: ra-reader}]\n"
+    res = run_scenario(parse_scenario(text, str(tmp_path / "s.yaml")), tmp_path / "out", plots=False)
+    assert res.report["boards"]["ra-reader"]["state"] == "LOST"
+    assert res.report["boards"]["dec-reader"]["state"] != "LOST"
+    lines = [ln for ln in (tmp_path / "out" / "errors.log").read_text().splitlines() if "heartbeat-lost" in ln]
+    assert len(lines) == 1 and "ra-reader" in lines[0]
+    t_s = float(lines[0].split()[0])
+    boot_s = (HostClient.BOOT_US + HostClient.POWER_ON_US) / 1e6
+    # the last heartbeat came ≤ 1 s before the fault; lost after the timeout, seen within one check
+    assert t_s <= boot_s + 1.0 + (HostClient.HEARTBEAT_TIMEOUT_US + HostClient.HEARTBEAT_CHECK_US) / 1e6
