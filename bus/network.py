@@ -544,8 +544,12 @@ class CanNetwork:
     def _account(self, start_us: int, dur_us: int, bits: int, aid: int) -> None:
         self.frames += 1
         self.bits += bits
-        self.busy_us += dur_us
         self.per_id[aid] = self.per_id.get(aid, 0) + 1
+        self._occupy(start_us, dur_us)
+
+    def _occupy(self, start_us: int, dur_us: int) -> None:
+        """Count ``dur_us`` of bus time from ``start_us`` (total and per 100 ms load window)."""
+        self.busy_us += dur_us
         win = self._window_busy
         t, end = start_us, start_us + dur_us
         while t < end:
@@ -610,14 +614,7 @@ class CanNetwork:
         self.error_frames += 1
         self.error_bits += total
         self.bits += total
-        self.busy_us += dur_us
-        win = self._window_busy
-        t, end = now_us, now_us + dur_us
-        while t < end:
-            w = t // WINDOW_US
-            upto = min(end, (w + 1) * WINDOW_US)
-            win[w] = win.get(w, 0) + upto - t
-            t = upto
+        self._occupy(now_us, dur_us)
         errs = self._errors
         tx = errs[id(pending.bus)]
         tx.tx_errors += 1
