@@ -33,8 +33,9 @@ import can
 
 from bus import protocol as proto
 from boards.control import DRIVE_LAWS, IncrementalPI
-from boards.firmware_base import (FAULT_LIMIT_STOP, FAULT_OVERCURRENT, STATE_FAULT, Board)
+from boards.firmware_base import (FAULT_LIMIT_STOP, FAULT_OVERCURRENT, FAULT_REFUSED, Board)
 from boards.peripherals import Adc, Pwm, Qei, Timer
+from boards.services import ObjectRefused
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_ISR, Scheduler
 from bus.units import ARCSEC_PER_RAD, ARCSEC_PER_REV, Q15_FULL_SCALE, check_counter_fraction, duty_to_q15, q15_to_duty
@@ -57,7 +58,7 @@ class AxisMode:
 QEI_COUNTS_PER_REV = 4_608_000 * 245 // 10
 
 #: Slew: Table 1 gives 12.583 rad/s at the motor; / 360.489 (§2.2) = 0.034906 rad/s at the
-#: axis = 7199.8″/s ≈ 2.000°/s.
+#: axis = 7199.748″/s ≈ 2.000°/s (the SDO object 0x2001:1 reads 7199748 milli-″/s).
 SLEW_ARCSEC_S = 12.583 / 360.489 * ARCSEC_PER_RAD
 
 #: Preset axis rates, arcsec/s. ``(RA, DEC)`` per preset.
@@ -65,7 +66,7 @@ SLEW_ARCSEC_S = 12.583 / 360.489 * ARCSEC_PER_RAD
 #: ====== ============ ========= ===========================================================
 #: preset RA ″/s       DEC ″/s   source
 #: ====== ============ ========= ===========================================================
-#: SLEW   7199.8       7199.8    Table 1 (12.583 rad/s motor / 360.489 ≈ 2°/s)
+#: SLEW   7199.748     7199.748  Table 1 (12.583 rad/s motor / 360.489 ≈ 2°/s)
 #: SET    600          600       assumed: the high speed of Figs. 6, 11 ("600 arc sec/s")
 #: GUIDE  100          100       assumed: the low speed of Fig. 7 ("100 arc sec/s")
 #: FINE   30           30        assumed: between guide and tracking (not in the paper)
@@ -147,6 +148,7 @@ class AxisController(Board):
 
     DEVICE_TYPE = int(proto.DeviceType.AXIS_CONTROLLER)
     KIND = "axis"
+    CANOPEN_KIND = "axis_controller"
 
     def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int = 1, *,
                  read_qei_counts: Callable[[], int],
@@ -243,9 +245,6 @@ class AxisController(Board):
         """Integral gain, duty per (″/s) per tick."""
         return self.pi.ki
 
-    def heartbeat_state(self) -> int:
-        return STATE_FAULT if self.tripped else self.state
-
     def on_start(self) -> None:
         self.qei.reset()          # POSCNT cleared at boot: the present count is the zero
         self._write_outputs()
@@ -263,7 +262,7 @@ class AxisController(Board):
         self.current_a = (self.adc_a * lsb, self.adc_b * lsb)
         over = max(self.current_a) > self.overcurrent_a
         if over and not self.overcurrent:
-            self.queue(proto.fault_cob_id(self.node_id), None)     # FAULT built in background
+            self.queue(proto.emcy_cob_id(self.node_id), None)     # FAULT built in background
             if self.overcurrent_trip:
                 self.tripped = True
                 self.mode = AxisMode.STOP
@@ -327,6 +326,10 @@ class AxisController(Board):
             else:
                 queue.append((cob, data))
         self._tx_queue = queue
+        if not self.overcurrent:
+            self.clear_fault(FAULT_OVERCURRENT)        # EMCY error reset if it was active
+        if self.mode != AxisMode.LIMIT_STOP:
+            self.clear_fault(FAULT_LIMIT_STOP)
         super()._background(now_us)
 
     # ------------------------------------------------------------------ commands
@@ -393,7 +396,7 @@ class AxisController(Board):
     def _refuse(self, sign: float, cmd: int) -> bool:
         if self._limit_active_toward(sign):
             self.limit_refusals += 1
-            self.send_fault(FAULT_LIMIT_STOP, detail=cmd)
+            self.send_fault(FAULT_REFUSED, detail=cmd)
             return True
         return False
 
@@ -423,3 +426,32 @@ class AxisController(Board):
     def stop_all(self) -> None:
         """HOST_BROADCAST STOP_ALL: controlled stop (PI to zero rate)."""
         self._set_mode(AxisMode.STOP, 0.0)
+
+    # ------------------------------------------------------------------ CANopen objects (SDO)
+    def od_read(self, index: int, subindex: int):
+        """0x2000 PI controller (Kp, Ki x 1e6, effort limit, counter fraction Q15), 0x2001 preset
+        rates (milli-arcsec/s, magnitudes for this axis); 0x2F00 from :class:`Board`."""
+        if index == 0x2000:
+            return {1: int(round(self.pi.kp * 1e6)), 2: int(round(self.pi.ki * 1e6)),
+                    3: duty_to_q15(self.pi.u_max),
+                    4: duty_to_q15(self.counter_fraction)}.get(subindex)
+        if index == 0x2001 and 1 <= subindex <= 5:
+            rate = PRESET_RATES_ARCSEC_S[subindex][min(self.axis, 1)]   # sub n = command n
+            return int(round(abs(rate) * 1000.0))
+        return super().od_read(index, subindex)
+
+    def od_write(self, index: int, subindex: int, value) -> None:
+        """Kp, Ki (as SET_KP/SET_KI: bumpless, volatile), effort limit, counter fraction."""
+        if index == 0x2000 and subindex == 1:
+            self.pi.kp = value * 1e-6
+        elif index == 0x2000 and subindex == 2:
+            self.pi.ki = value * 1e-6
+        elif index == 0x2000 and subindex == 3:
+            self.pi.u_max = self.u_max = q15_to_duty(value)
+        elif index == 0x2000 and subindex == 4:
+            try:
+                self.counter_fraction = check_counter_fraction(q15_to_duty(value))
+            except ValueError as exc:
+                raise ObjectRefused(reason=str(exc)) from None
+        else:
+            super().od_write(index, subindex, value)

@@ -2,7 +2,7 @@
 boards and the plant on a SocketCAN bus, in real time, for a host program outside the emulator.
 
 Our host node only listens (``host.monitor.BusMonitor``) and logs; the external program sends
-the PINGs and commands. Runs until ``--duration`` seconds have passed or SIGINT/SIGTERM; either
+the health check (SDO), NMT start and commands. Runs until ``--duration`` seconds have passed or SIGINT/SIGTERM; either
 way the logs are flushed and ``report.json``/``report.md`` written before it exits (status 0).
 A second SIGINT interrupts at once (the logs are still closed).
 """

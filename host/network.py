@@ -157,7 +157,8 @@ class Telescope:
         counters through ``report_counters()``."""
         out = {}
         for name, b in self.boards.items():
-            d = {"node": b.node_id, "malformed_frames": b.malformed_frames, "state": _state_name(b),
+            d = {"node": b.node_id, "malformed_frames": b.malformed_frames, "state": b.device.state,
+                 "emcy_sent": b.device.emcy.sent,
                  "reset_cause": b.reset_cause, "resets": b.reset_count}
             d.update(b.report_counters())
             if BOARDS[name][0].kind == "focus_controller":   # the plant's truth beside the firmware's count
@@ -187,13 +188,6 @@ class Telescope:
 
 
 _AXIS_BOARD = {i.axis: name for name, (s, i) in BOARDS.items() if s.kind == "axis_controller"}
-
-
-def _state_name(board) -> str:
-    try:
-        return P.NodeState(board.state).name
-    except (ValueError, TypeError):
-        return str(board.state)
 
 
 def _make_bus(scenario: Scenario, channel: str) -> can.BusABC:
