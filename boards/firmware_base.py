@@ -127,6 +127,7 @@ class Board(Application):
         self._accepted_ids = set(self.device.accepted_ids) | {
             proto.heartbeat_cob_id(n) for n in proto.ALL_NODES if n != self.node_id}
         self._stop_all_id = proto.stop_all_cob_id()
+        self._tpdo_ids = frozenset(self.device.tpdo_ids)
         self.uart: Optional[Uart] = Uart(serial_port) if serial_port is not None else None
         #: True when the firmware samples telemetry (a port is wired)
         self.telemetry_enabled = self.uart is not None
@@ -263,8 +264,12 @@ class Board(Application):
         """STOP_ALL (0x190), or NMT leaving OPERATIONAL (subclasses stop their actuators)."""
 
     def send(self, arbitration_id: int, data: bytes) -> None:
-        """Transmit now (used from the background loop and the receive handler)."""
-        self.can.send(arbitration_id, data)
+        """Transmit now (used from the background loop and the receive handler). A TPDO of this
+        node goes through the CANopen PDO gate: dropped (counted) unless NMT OPERATIONAL."""
+        if arbitration_id in self._tpdo_ids:
+            self.device.transmit_pdo(arbitration_id, data)
+        else:
+            self.can.send(arbitration_id, data)
 
     def queue(self, arbitration_id: int, data: bytes) -> None:
         """Queue a frame for the background loop (what an ISR does instead of SPI transfers)."""
@@ -274,12 +279,8 @@ class Board(Application):
         if not self.can.interrupt_enabled:
             self.can.poll()
         queue, self._tx_queue = self._tx_queue, []
-        tpdos = self.device.tpdo_ids
         for arbitration_id, data in queue:
-            if arbitration_id in tpdos:
-                self.device.transmit_pdo(arbitration_id, data)   # dropped unless OPERATIONAL
-            else:
-                self.send(arbitration_id, data)
+            self.send(arbitration_id, data)
         self.background(now_us)
         if self._tlm_ready is not None:
             self._write_telemetry()

@@ -21,7 +21,7 @@ import can
 from bus import protocol as P
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_HOST, Scheduler
-from boards.registry import NODE_NAMES, nodes_of_kind
+from boards.registry import NODE_NAMES, REGISTRY, nodes_of_kind
 from bus.units import TICK_US, duty_to_q15, q15_to_duty
 
 __all__ = ["HostClient", "Health", "AxisState", "NODE_NAMES", "AXIS_NODES"]
@@ -29,6 +29,8 @@ __all__ = ["HostClient", "Health", "AxisState", "NODE_NAMES", "AXIS_NODES"]
 AXIS_NODES = nodes_of_kind("axis_controller")       #: {"ra": 1, "dec": 2}
 READER_NODES = nodes_of_kind("position_reader")    #: {"ra": 3, "dec": 4}
 _AXIS_OF_NODE = {node: axis for axis, node in AXIS_NODES.items()}
+#: EDS (board kind) of each node: what the host's SDO client reads it with.
+_EDS_OF_NODE = {int(i.node_id): s.firmware.CANOPEN_KIND for s in REGISTRY for i in s.instances}
 
 _MODE_CMD = {
     "stop": P.AxisCommand.STOP,
@@ -129,6 +131,7 @@ class HostClient:
     BOOT_US = 20_000       #: wait after power-on before the health check [µs] (assumed)
     POWER_ON_US = 100_000  #: time the boards have to answer the health check's SDO [µs] (assumed)
     HEARTBEAT_US = 1_000_000   #: the host's CiA heartbeat period [µs] (its EDS 0x1017, 1000 ms)
+    POLL_US = 1_000            #: step while waiting for the health check's answers [µs]
     QEI_WRAP = 1 << 24
 
     def __post_init__(self) -> None:
@@ -144,6 +147,9 @@ class HostClient:
         #: called with (can_id, data, t_us) for SDO responses, EMCY and heartbeats (a canopen
         #: master network's ``notify``, host/canopen_master.py)
         self.canopen_notify: Callable | None = None
+        self.canopen = None                       # host.canopen_master.HostCanopenNetwork, at power-on
+        self.identities: dict[str, dict] = {}     # board -> identity read by SDO at power-on
+        self.parameters: dict[str, dict] = {}     # board -> parameters read back by SDO
         self.frames_received = 0
         self.malformed_frames = 0
         self._errors: list[str] = []
@@ -301,10 +307,35 @@ class HostClient:
             self.HEARTBEAT_US, beat, start_us=self.scheduler.now_us, priority=PRIO_HOST,
             owner="host-heartbeat")
 
+    def read_boards(self, nodes) -> None:
+        """Read identity (0x1018, 0x1008, 0x100A) and parameters (the EDS's manufacturer objects
+        with a range) of each node by SDO with canopen's ``RemoteNode``
+        (:mod:`host.canopen_master`); kept in :attr:`identities` / :attr:`parameters` by board
+        name for the report. A node that stops answering is logged as an error."""
+        from host.canopen_master import (HostCanopenNetwork, SdoAbortedError,
+                                         SdoCommunicationError, read_identity, read_parameters)
+        if self.canopen is None:
+            self.canopen = HostCanopenNetwork(self.bus, lambda: self.scheduler.now_us,
+                                              self.advance or self.scheduler.run_until)
+            self.canopen_notify = self.canopen.notify
+        for n in nodes:
+            name = NODE_NAMES[n]
+            node = self.canopen.nodes.get(n) or self.canopen.add_board(_EDS_OF_NODE[n], n)
+            try:
+                self.identities[name] = read_identity(node)
+                self.parameters[name] = read_parameters(node)
+            except (SdoAbortedError, SdoCommunicationError) as exc:
+                self._error(self.scheduler.now_us, name, "sdo", f"identity/parameters: {exc}")
+        if self.logs:
+            self.logs.status(self.scheduler.now_us, P.NODE_HOST, "host", "identity",
+                             " ".join(f"{k}={v['device_name']!r}/{v['serial_number']:#x}"
+                                      for k, v in self.identities.items()))
+
     def power_on(self) -> Health:
         """Let the boards boot (``BOOT_US``), read object 0x1000 of every expected node by SDO
-        and wait ``POWER_ON_US`` for the answers; then NMT start (all nodes) and the host's own
-        heartbeat.
+        and wait (at most ``POWER_ON_US``) for the answers; read identity and parameters of every
+        node that answered (:meth:`read_boards`); at ``POWER_ON_US`` after the check (later only
+        if the reads took longer) NMT start (all nodes) and the host's own heartbeat.
 
         Returns
         -------
@@ -320,7 +351,12 @@ class HostClient:
                                       is_extended_id=False))
         if self.logs:
             self.logs.command(t0, "all", "SDO upload 0x1000", "power-on health check")
-        run_until(t0 + self.POWER_ON_US)
+        while (self.scheduler.now_us < t0 + self.POWER_ON_US
+               and any(self.sdo_answers.get(n, -1) < t0 for n in self.expected_nodes)):
+            run_until(min(self.scheduler.now_us + self.POLL_US, t0 + self.POWER_ON_US))
+        self.read_boards([n for n in self.expected_nodes if self.sdo_answers.get(n, -1) >= t0])
+        if self.scheduler.now_us < t0 + self.POWER_ON_US:
+            run_until(t0 + self.POWER_ON_US)
         answered = {NODE_NAMES[n]: self.sdo_answers[n] for n in self.expected_nodes
                     if self.sdo_answers.get(n, -1) >= t0}
         missing = [NODE_NAMES[n] for n in self.expected_nodes if NODE_NAMES[n] not in answered]

@@ -182,7 +182,9 @@ def run_scenario(
         "controller": tel.controller_summary(),
         "plant": tel.plant_summary(),
         "bus_stats": tel.bus_stats(),
-        "boards": tel.board_summary(),
+        "boards": {name: {**row, "identity": client.identities.get(name),
+                          "parameters": client.parameters.get(name)}
+                   for name, row in tel.board_summary().items()},
         "rs232": tel.rs232_summary(),
         "errors": session.errors + client.error_lines(),
         "realtime": session.clock_stats(),
