@@ -33,7 +33,11 @@ import can
 
 from bus import protocol as proto
 from boards.control import DRIVE_LAWS, IncrementalPI
-from boards.firmware_base import (FAULT_LIMIT_STOP, FAULT_OVERCURRENT, FAULT_REFUSED, Board)
+from boards.firmware_base import (FAULT_BRAKE_CUT, FAULT_HOST_TIMEOUT, FAULT_LIMIT_STOP,
+                                  FAULT_OVERCURRENT, FAULT_OVERSPEED, FAULT_READER_LOST, Board)
+from boards.safety import (DEFAULT_SAFETY, REFUSE_DUTY, REFUSE_GAIN, REFUSE_LIMIT, REFUSE_RATE,
+                           REFUSE_READER,
+                           SafetyLimits)
 from boards.peripherals import Adc, Pwm, Qei, Timer
 from boards.services import ObjectRefused
 from bus.errors import MalformedFrame
@@ -91,6 +95,7 @@ DEFAULT_KI = 4.63e-5      # duty per (″/s) per tick
 STATUS_LIMIT, STATUS_ANTIWINDUP, STATUS_OVERCURRENT, STATUS_FAULT = (
     int(f) for f in (proto.AxisStatusFlags.LIMIT_STOP, proto.AxisStatusFlags.ANTI_WINDUP,
                      proto.AxisStatusFlags.OVER_CURRENT, proto.AxisStatusFlags.FAULT))
+POS_INVALID_FLAG = int(proto.PositionFlags.INVALID)
 LIMIT_LOW, LIMIT_HIGH, LIMIT_INVALID = (
     int(f) for f in (proto.LimitFlags.LOW_SOFT_LIMIT, proto.LimitFlags.HIGH_SOFT_LIMIT,
                      proto.LimitFlags.POSITION_INVALID))
@@ -144,6 +149,8 @@ class AxisController(Board):
         Owner name (default ``"axis-<node>"``; the network passes the registry name).
     serial_port : object, optional
         RS232 telemetry port with the pyserial ``write()`` API (None: no telemetry).
+    safety : SafetyLimits
+        Command bounds, braking strategy, watchdogs (:mod:`boards.safety`, docs/faults.md).
     """
 
     DEVICE_TYPE = int(proto.DeviceType.AXIS_CONTROLLER)
@@ -162,7 +169,7 @@ class AxisController(Board):
                  qei_counts_per_rev: int = QEI_COUNTS_PER_REV, shunt_ohm: float = 0.1,
                  overcurrent_a: float = 6.0, overcurrent_trip: bool = False,
                  limit_stop: str = "hold", name: Optional[str] = None,
-                 serial_port=None) -> None:
+                 serial_port=None, safety: SafetyLimits = DEFAULT_SAFETY) -> None:
         if law not in DRIVE_LAWS:
             raise ValueError(f"unknown drive law {law!r}; valid: {sorted(DRIVE_LAWS)}")
         check_counter_fraction(counter_fraction)
@@ -186,6 +193,11 @@ class AxisController(Board):
         self.overcurrent_trip = bool(overcurrent_trip)
         self.limit_stop_mode = limit_stop
         self.limit_reader_node = node_id + 2 if limit_reader_node is None else limit_reader_node
+        self.safety = safety
+        self.fault_clear_hold_us = int(safety.fault_clear_hold_us)
+        self.slew_arcsec_s = SLEW_ARCSEC_S
+        self.overspeed_arcsec_s = SLEW_ARCSEC_S * safety.overspeed_factor
+        self._brake_step = safety.brake_decel_arcsec_s2 * self.tick_us * 1e-6   # ″/s per tick
 
         self.pwm = Pwm(2, on_duties)
         self.qei = Qei(read_qei_counts)
@@ -194,6 +206,10 @@ class AxisController(Board):
                                           priority=PRIO_ISR, owner=f"{self.name}/isr"))
         self.accept_id(proto.axis_command_cob_id(self.node_id))
         self.accept_id(proto.limit_cob_id(self.limit_reader_node))
+        self._position_cob = proto.position_cob_id(self.limit_reader_node)
+        self._host_hb_cob = proto.heartbeat_cob_id(int(proto.NodeId.HOST))
+        self.accept_id(self._position_cob)        # reader liveness and validity
+        self.accept_id(self._host_hb_cob)         # host heartbeat feeds the host watchdog
         self._init_axis_state()
 
     # ------------------------------------------------------------------ state
@@ -219,6 +235,22 @@ class AxisController(Board):
         self.limit_flags = 0
         self.position_invalid = False
         self.limit_refusals = 0
+        # braking and supervision (boards/safety.py)
+        now = self.scheduler.now_us
+        self.braking = False
+        self.brake_sp = 0.0
+        self.brake_cut = False
+        self._brake_bad = 0
+        self._brake_ramp_end_us = 0
+        self._overspeed_ticks = 0
+        self._host_us = now
+        self.host_timed_out = False
+        self.reader_seen = False
+        self._reader_us = now
+        self.reader_invalid = False
+        self.reader_lost = 0              # 0 ok, 1 silent, 2 invalid
+        self._lost_limit_flags = 0
+        self._limit_us = now
         self.ticks = 0
         self.aux_seq = 0
         self._tlm_sp = 0.0            # setpoint last converted for telemetry, ″/s
@@ -261,21 +293,30 @@ class AxisController(Board):
         lsb = self.adc.lsb_v / self.shunt_ohm
         self.current_a = (self.adc_a * lsb, self.adc_b * lsb)
         over = max(self.current_a) > self.overcurrent_a
+        if over:
+            # reported once per occurrence, then rate-limited and cleared (Board.fault_condition)
+            self.queue_fault(FAULT_OVERCURRENT, int(max(self.current_a) * 1000) & 0xFFFF)
         if over and not self.overcurrent:
-            self.queue(proto.emcy_cob_id(self.node_id), None)     # FAULT built in background
             if self.overcurrent_trip:
                 self.tripped = True
                 self.mode = AxisMode.STOP
                 self.setpoint_arcsec_s = 0.0
                 self.pi.force(0.0)
         self.overcurrent = over
+        self._supervise(now_us)
 
-        if self.tripped or (self.mode == AxisMode.LIMIT_STOP and self.limit_stop_mode == "coast"):
+        if (self.tripped or self.brake_cut
+                or (self.mode == AxisMode.LIMIT_STOP and self.limit_stop_mode == "coast")):
             self.pi.force(0.0)
         elif self.mode == AxisMode.OPEN_LOOP:
             self.pi.force(self.open_loop_u, 0.0)
         else:
-            self.pi.update(self.setpoint_arcsec_s - self.omega_arcsec_s)
+            if self.braking:
+                self._brake_tick(now_us)
+            if not self.brake_cut:
+                self.pi.update(self.setpoint_arcsec_s - self.omega_arcsec_s)
+            else:
+                self.pi.force(0.0)
         self._write_outputs()
 
         if self.ticks % self.status_every_ticks == 0:
@@ -297,8 +338,82 @@ class AxisController(Board):
                                                self.adc_a, self.adc_b, self._tlm_sp_m,
                                                self.mode, flags))
 
+    # ------------------------------------------------------------------ safety (boards/safety.py)
+    def _supervise(self, now_us: int) -> None:
+        """Per tick: LIMIT expiry, position-reader and host watchdogs."""
+        sf = self.safety
+        w = self.omega_arcsec_s
+        if w > self.overspeed_arcsec_s or w < -self.overspeed_arcsec_s:
+            self._overspeed_ticks += 1
+            if self._overspeed_ticks >= sf.brake_bad_ticks and not self.braking:
+                self.queue_fault(FAULT_OVERSPEED, int(min(abs(w), 65535)))
+                self._brake(AxisMode.STOP)
+        else:
+            self._overspeed_ticks = 0
+        if self.limit_flags and now_us - self._limit_us > sf.limit_expiry_us:
+            self.limit_flags = 0                       # LIMIT frames stopped: the state expires
+            if self.mode == AxisMode.LIMIT_STOP:
+                self.mode = AxisMode.STOP
+        if self.reader_seen:
+            lost = (1 if now_us - self._reader_us > sf.reader_timeout_us
+                    else (2 if self.reader_invalid else 0))
+            if lost:
+                if not self.reader_lost:
+                    self._lost_limit_flags = self.limit_flags
+                self.reader_lost = lost
+                self.queue_fault(FAULT_READER_LOST, lost)
+                if self.motion_sign() != 0 and not self._toward_safety(self.motion_sign()):
+                    self._brake(AxisMode.STOP)
+            elif self.reader_lost:
+                self.reader_lost = 0
+        wd = sf.host_watchdog_us
+        if wd is not None and now_us - self._host_us > wd:
+            self.host_timed_out = True
+            self.queue_fault(FAULT_HOST_TIMEOUT, wd // 1000)
+            if self.motion_sign() != 0:
+                self._brake(AxisMode.STOP)
+
+    def _toward_safety(self, sign: int) -> bool:
+        """With the reader lost, only motion away from the limit active when it was lost."""
+        f = self._lost_limit_flags
+        return bool((sign < 0 and f & LIMIT_HIGH) or (sign > 0 and f & LIMIT_LOW))
+
+    def _brake(self, mode: int) -> None:
+        """Start (or continue) the braking ramp toward rest; see boards/safety.py."""
+        self.mode = mode
+        self.open_loop_u = 0.0
+        if not self.braking:
+            self.braking = True
+            self.brake_sp = self.omega_arcsec_s
+            self._brake_bad = 0
+            self._brake_ramp_end_us = (self.scheduler.now_us
+                                       + int(abs(self.brake_sp) / self._brake_step) * self.tick_us)
+        self.setpoint_arcsec_s = self.brake_sp
+
+    def _brake_tick(self, now_us: int) -> None:
+        """Advance the ramp one tick and supervise: cut the duty if the axis does not slow."""
+        sf = self.safety
+        r, step = self.brake_sp, self._brake_step
+        r = r - step if r > step else (r + step if r < -step else 0.0)
+        self.brake_sp = r
+        self.setpoint_arcsec_s = r
+        w = abs(self.omega_arcsec_s)
+        if w > abs(r) + sf.brake_margin_arcsec_s:
+            self._brake_bad += 1
+        else:
+            self._brake_bad = 0
+        late = r == 0.0 and now_us - self._brake_ramp_end_us > sf.brake_grace_us
+        if self._brake_bad >= sf.brake_bad_ticks or (late and w > sf.brake_stop_tol_arcsec_s):
+            self.brake_cut = True
+            self.braking = False
+            self.setpoint_arcsec_s = 0.0
+            self.pi.force(0.0)
+            self.queue_fault(FAULT_BRAKE_CUT, int(min(w, 65535)))
+        elif r == 0.0 and w <= sf.brake_stop_tol_arcsec_s:
+            self.braking = False                          # at rest: PI holds zero rate
+
     def _write_outputs(self) -> None:
-        if self.tripped:
+        if self.tripped or self.brake_cut:
             self.pwm.set_duties(0.0, 0.0)
             return
         self.pwm.set_duties(*self.law(self.pi.u, self.counter_fraction))
@@ -312,37 +427,41 @@ class AxisController(Board):
             f |= STATUS_ANTIWINDUP
         if self.overcurrent:
             f |= STATUS_OVERCURRENT
-        if self.tripped or self.position_invalid:
+        if self.tripped or self.position_invalid or self.brake_cut or self.reader_lost:
             f |= STATUS_FAULT
         return f
 
-    def _background(self, now_us: int) -> None:
-        # The ISR queued ``None`` as a placeholder for an over-current FAULT (built here, where
-        # counters are read, not in the ISR).
-        queue = []
-        for cob, data in self._tx_queue:
-            if data is None:
-                self.send_fault(FAULT_OVERCURRENT, int(max(self.current_a) * 1000) & 0xFFFF)
-            else:
-                queue.append((cob, data))
-        self._tx_queue = queue
-        if not self.overcurrent:
-            self.clear_fault(FAULT_OVERCURRENT)        # EMCY error reset if it was active
-        if self.mode != AxisMode.LIMIT_STOP:
-            self.clear_fault(FAULT_LIMIT_STOP)
-        super()._background(now_us)
-
     # ------------------------------------------------------------------ commands
     def handle_frame(self, arbitration_id: int, data: bytes) -> None:
-        if arbitration_id == proto.axis_command_cob_id(self.node_id):
-            self._command(proto.decode_axis_command(data))
+        if arbitration_id == self._position_cob:
+            pos = proto.decode_position(data)
+            self.reader_seen = True
+            self._reader_us = self.scheduler.now_us
+            self.reader_invalid = bool(pos.flags & POS_INVALID_FLAG)
+        elif arbitration_id == proto.axis_command_cob_id(self.node_id):
+            c = proto.decode_axis_command(data)
+            self._host_alive()
+            self._command(c)
         elif arbitration_id == proto.limit_cob_id(self.limit_reader_node):
             lim = proto.decode_limit(data)
             if lim.axis != self.axis:
                 raise MalformedFrame("LIMIT", "axis", f"{self.axis}", lim.axis)
+            self._limit_us = self.scheduler.now_us
             self._limit(lim.flags)
+        elif arbitration_id == self._host_hb_cob:
+            proto.decode_heartbeat(data)
+            self._host_alive()
         else:
             super().handle_frame(arbitration_id, data)
+
+    def _handle_broadcast(self, b) -> None:
+        self._host_alive()
+        super()._handle_broadcast(b)
+
+    def _host_alive(self) -> None:
+        self._host_us = self.scheduler.now_us
+        if self.host_timed_out:
+            self.host_timed_out = False
 
     def _direction(self, cmd: int, direction: int) -> int:
         if direction in (1, -1):
@@ -354,35 +473,48 @@ class AxisController(Board):
     def _command(self, c) -> None:
         cmd = c.cmd
         if cmd == AxisMode.STOP:
-            self._set_mode(AxisMode.STOP, 0.0)
+            self._brake(AxisMode.STOP)
             return
         if cmd in (AxisMode.SET_KP, AxisMode.SET_KI):
-            if c.value < 0:
-                raise MalformedFrame("AXIS_COMMAND", "value", "gain >= 0", c.value)
+            gain = c.value * 1e-6
+            tuned = self.kp0 if cmd == AxisMode.SET_KP else self.ki0
+            band = self.safety.gain_band
+            if not tuned / band <= gain <= tuned * band:
+                self.refuse(REFUSE_GAIN, cmd)          # state unchanged
+                return
             if cmd == AxisMode.SET_KP:
-                self.pi.kp = c.value * 1e-6
+                self.pi.kp = gain
             else:
-                self.pi.ki = c.value * 1e-6
+                self.pi.ki = gain
             return
         sign = self._direction(cmd, c.direction)
         if cmd == AxisMode.OPEN_LOOP:
             if abs(c.value) > Q15_FULL_SCALE:
-                raise MalformedFrame("AXIS_COMMAND", "value", f"|duty_q15| <= {Q15_FULL_SCALE}", c.value)
+                self.refuse(REFUSE_DUTY, cmd)
+                return
             u = max(-self.u_max, min(self.u_max, sign * q15_to_duty(c.value)))
             if self._refuse(u, cmd):
                 return
-            self.tripped = False
+            self._start_motion()
             self.open_loop_u = u
             self.mode = AxisMode.OPEN_LOOP
             return
         if cmd == AxisMode.VELOCITY:
             rate = sign * c.value / 1000.0
+            if abs(rate) > self.slew_arcsec_s:
+                self.refuse(REFUSE_RATE, cmd)
+                return
         else:
             rate = sign * PRESET_RATES_ARCSEC_S[cmd][min(self.axis, 1)]
         if self._refuse(rate, cmd):
             return
-        self.tripped = False
+        self._start_motion()
         self._set_mode(int(cmd), rate)
+
+    def _start_motion(self) -> None:
+        self.tripped = False
+        self.brake_cut = False
+        self.braking = False
 
     def _set_mode(self, mode: int, rate: float) -> None:
         # Bumpless: neither U nor E_{k-1} is touched (incremental form, see IncrementalPI).
@@ -394,9 +526,13 @@ class AxisController(Board):
                     or (sign > 0 and self.limit_flags & LIMIT_HIGH))
 
     def _refuse(self, sign: float, cmd: int) -> bool:
+        s = (sign > 0) - (sign < 0)
+        if self.reader_lost and s != 0 and not self._toward_safety(s):
+            self.refuse(REFUSE_READER, cmd)
+            return True
         if self._limit_active_toward(sign):
             self.limit_refusals += 1
-            self.send_fault(FAULT_REFUSED, detail=cmd)
+            self.refuse(REFUSE_LIMIT, cmd)
             return True
         return False
 
@@ -414,9 +550,7 @@ class AxisController(Board):
         self.position_invalid = bool(flags & LIMIT_INVALID)
         self.limit_flags = flags & (LIMIT_LOW | LIMIT_HIGH)
         if self._limit_active_toward(self.motion_sign()):
-            self.mode = AxisMode.LIMIT_STOP
-            self.setpoint_arcsec_s = 0.0
-            self.open_loop_u = 0.0
+            self._brake(AxisMode.LIMIT_STOP)
             if self.limit_stop_mode == "coast":
                 self.pi.force(0.0)
             self.send_fault(FAULT_LIMIT_STOP, detail=flags)
@@ -424,8 +558,13 @@ class AxisController(Board):
             self.mode = AxisMode.STOP
 
     def stop_all(self) -> None:
-        """HOST_BROADCAST STOP_ALL: controlled stop (PI to zero rate)."""
-        self._set_mode(AxisMode.STOP, 0.0)
+        """STOP_ALL (0x190) or NMT leaving OPERATIONAL: controlled stop (braking ramp, supervised)."""
+        self._brake(AxisMode.STOP)
+
+    def background(self, now_us: int) -> None:
+        """The limit-stop condition ends when the axis leaves LIMIT_STOP: EMCY error reset."""
+        if self.mode != AxisMode.LIMIT_STOP:
+            self.clear_fault(FAULT_LIMIT_STOP)
 
     # ------------------------------------------------------------------ CANopen objects (SDO)
     def od_read(self, index: int, subindex: int):

@@ -19,7 +19,9 @@ LVDT counts, the half-step counter and the low 16 bits of the encoder count (the
 whole half-steps is ``round(enc_counts / counts_per_halfstep − pos_halfsteps)`` (tolerance ±½
 half-step = ±2.5 counts). Every change of that deviation adds its size to ``missed_steps``,
 latches FOCUS_STATUS flag STEP_LOSS until the next status, and sends FAULT code 6 STEP_LOSS
-(detail = ``missed_steps``, at most one per second). The counter is *not* corrected: the
+(detail = ``missed_steps``, the true total at the time of sending) at most once per second: a
+loss detected within that second is not dropped but reported by the main loop as soon as the
+second has passed, with the total then reached (issue 11: 7 lost half-steps were reported as 4). The counter is *not* corrected: the
 half-step counter stays "commanded since reset", as in the paper's open-loop drive; the
 operator re-references with LVDT and index (§3.3). Counts per half-step = encoder counts per
 motor revolution / 400 half-steps per revolution (5 for the assumed 2000 counts/rev, see
@@ -34,8 +36,9 @@ the demodulated LVDT voltage), acceleration ramps, automatic referencing with LV
 the QEI's index-reset mode and digital noise filter.
 
 Assumed numbers (not in the paper): step rate 400 half-steps/s (one motor revolution per second,
-2.5 mm/s of housing travel); travel ±800 half-steps (±5 mm, the LVDT range of §3.2) — targets
-are clamped to it.
+2.5 mm/s of housing travel); travel ±800 half-steps (±5 mm, the LVDT range of §3.2). A STEP or
+MOVE_TO whose target lies outside the travel is refused (FAULT COMMAND_REFUSED, reason 6,
+boards/safety.py) and changes nothing.
 """
 
 from __future__ import annotations
@@ -46,6 +49,7 @@ from typing import Callable, Optional
 import can
 
 from boards.firmware_base import FAULT_STEP_LOSS, Board
+from boards.safety import REFUSE_TRAVEL
 from boards.peripherals import Adc, Qei, StepDir, Timer
 from bus import protocol as proto
 from bus.errors import MalformedFrame
@@ -157,6 +161,7 @@ class FocusController(Board):
         self.step_deviation = 0          # encoder − counter, whole half-steps, last check
         self.step_loss_seen = False      # latched until the next FOCUS_STATUS
         self._step_fault_us: Optional[int] = None
+        self._step_fault_pending = False  # a loss not yet reported (rate limit)
         self._loop_passes = 0
         self._stepped = False            # half-steps issued since the last encoder check
 
@@ -202,6 +207,8 @@ class FocusController(Board):
         record a telemetry sample. Every ``status_period_us`` (250 ms): sample the LVDT, send
         FOCUS_STATUS."""
         self._loop_passes += 1
+        if self._step_fault_pending and now_us - self._step_fault_us >= STEP_LOSS_FAULT_MIN_INTERVAL_US:
+            self._send_step_fault(now_us)
         if self._loop_passes & 1 == 0:
             if self.qei is not None and (self._stepped or self.telemetry_enabled):
                 self._check_steps(now_us)
@@ -235,8 +242,14 @@ class FocusController(Board):
         self.step_loss_seen = True
         if (self._step_fault_us is None
                 or now_us - self._step_fault_us >= STEP_LOSS_FAULT_MIN_INTERVAL_US):
-            self._step_fault_us = now_us
-            self.send_fault(FAULT_STEP_LOSS, detail=min(self.missed_steps, 0xFFFF))
+            self._send_step_fault(now_us)
+        else:
+            self._step_fault_pending = True      # reported when the second has passed
+
+    def _send_step_fault(self, now_us: int) -> None:
+        self._step_fault_us = now_us
+        self._step_fault_pending = False
+        self.send_fault(FAULT_STEP_LOSS, detail=min(self.missed_steps, 0xFFFF))
 
     def status_flags(self) -> int:
         """FOCUS_STATUS flags byte."""
@@ -264,12 +277,13 @@ class FocusController(Board):
         c = proto.decode_focus_command(data)
         if c.cmd == CMD_STOP:
             self.target_halfsteps = self.pos_halfsteps
-        elif c.cmd == CMD_STEP:
+        elif c.cmd in (CMD_STEP, CMD_MOVE_TO):
+            target = self.target_halfsteps + c.value if c.cmd == CMD_STEP else c.value
+            if not -self.travel_halfsteps <= target <= self.travel_halfsteps:
+                self.refuse(REFUSE_TRAVEL, c.cmd)     # state unchanged
+                return
             self.stepper.set_power("on")
-            self.target_halfsteps = self._clamp(self.target_halfsteps + c.value)
-        elif c.cmd == CMD_MOVE_TO:
-            self.stepper.set_power("on")
-            self.target_halfsteps = self._clamp(c.value)
+            self.target_halfsteps = int(target)
         elif c.cmd == CMD_HOLD:
             self.target_halfsteps = self.pos_halfsteps
             self.stepper.set_power("hold")

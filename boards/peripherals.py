@@ -375,6 +375,33 @@ class CanController:
         self.tx_frames += 1
         return True
 
+    # Error-counter registers (MCP2515 TEC/REC/EFLG; PIC18 ECAN TXERRCNT/RXERRCNT/COMSTAT).
+    # Read from the bus's fault-confinement model when it has one (``schmidt-sim``); a bus
+    # without one (python-can virtual, socketcan here) reads as an error-active node at 0/0.
+    @property
+    def tec(self) -> int:
+        """Transmit error counter (TEC register), 0..255 (saturates at 255 when bus-off)."""
+        es = getattr(self.bus, "error_state", None)
+        return min(es.tec, 255) if es is not None else 0
+
+    @property
+    def rec(self) -> int:
+        """Receive error counter (REC register), 0..255."""
+        es = getattr(self.bus, "error_state", None)
+        return min(es.rec, 255) if es is not None else 0
+
+    @property
+    def error_state(self) -> str:
+        """``"error-active"``, ``"error-passive"`` or ``"bus-off"`` (EFLG TXBO/TXEP/RXEP bits)."""
+        es = getattr(self.bus, "error_state", None)
+        return es.state if es is not None else "error-active"
+
+    def request_recovery(self) -> None:
+        """Leave bus-off (the firmware's recovery request; no-op on a bus without the model)."""
+        fn = getattr(self.bus, "request_recovery", None)
+        if fn is not None:
+            fn()
+
     def reset(self) -> None:
         """Power-on: buffers empty, counters zero, interrupt unhooked (firmware re-enables it)."""
         self.disable_rx_interrupt()

@@ -19,9 +19,15 @@ angle once the offset is aligned (§5.2), for DEC the declination-axis angle.
 Soft limits (assumed defaults, not in the paper)
 ------------------------------------------------
 RA: −95° .. +95° hour angle (6 h 20 min either side of the meridian); DEC: −40° .. +110°
-(axis angle). A limit becomes active when the angle reaches it and clears when the angle is
-back inside by ``hysteresis_arcsec`` (10″). LIMIT frames are sent on every change of the flags
-and every 100 ms while any flag is set (architecture.md).
+(axis angle). LIMIT frames are sent on every change of the flags and every 100 ms while any
+flag is set (architecture.md); the axis controller lets a flag expire when they stop.
+
+Braking zone (boards/safety.py): a limit flag is raised where braking must *begin* so that the
+axis stops before the limit: when the distance to the limit in the direction of motion is at
+most ``SafetyLimits.braking_distance_arcsec(v)``, v being the reader's rate estimate from two
+successive EnDat reads (10 ms apart), or when the angle is at or past the limit. The flag
+clears once the axis moves no faster than ``brake_stop_tol_arcsec_s`` toward the limit and is
+back inside by ``hysteresis_arcsec`` (10″).
 """
 
 from __future__ import annotations
@@ -36,6 +42,7 @@ from boards.firmware_base import FAULT_CRC, Board
 from boards.peripherals import Timer
 from boards.services import ObjectRefused
 from boards.services.application import ABORT_MAX_LESS_THAN_MIN
+from boards.safety import DEFAULT_SAFETY, SafetyLimits
 from bus.scheduler import PRIO_ISR, Scheduler
 from bus.units import ARCSEC_PER_REV
 
@@ -79,6 +86,8 @@ class PositionReader(Board):
         Owner name (default ``"reader-<node>"``; the network passes the registry name).
     serial_port : object, optional
         RS232 telemetry port with the pyserial ``write()`` API (None: no telemetry).
+    safety : SafetyLimits
+        Braking deceleration and reaction time of the braking zone (:mod:`boards.safety`).
     """
 
     DEVICE_TYPE = int(proto.DeviceType.POSITION_READER)
@@ -90,7 +99,9 @@ class PositionReader(Board):
                  read_period_us: int = 10_000, low_limit_deg: Optional[float] = None,
                  high_limit_deg: Optional[float] = None, hysteresis_arcsec: float = 10.0,
                  offset_counts: int = 0, limit_repeat_us: int = 100_000,
-                 name: Optional[str] = None, serial_port=None) -> None:
+                 name: Optional[str] = None, serial_port=None,
+                 safety: SafetyLimits = DEFAULT_SAFETY) -> None:
+        self.safety = safety
         self.axis = (node_id - 3) if axis is None else int(axis)
         super().__init__(scheduler, bus, node_id, name=name,
                          background_period_us=read_period_us, serial_port=serial_port,
@@ -119,6 +130,8 @@ class PositionReader(Board):
 
     def _init_reader_state(self) -> None:
         self.pos_counts = 0
+        self.rate_arcsec_s = 0.0          # from two successive good reads
+        self._prev_counts: Optional[int] = None
         self.have_position = False
         self.last_crc_error = False
         self.alarm = False
@@ -186,6 +199,11 @@ class PositionReader(Board):
             self.alarm = bool(r.f1 or r.f2)
             if not self.alarm:
                 self.pos_counts = (r.position + self.offset_counts) % COUNTS_PER_REV
+                prev = self._prev_counts
+                if prev is not None:
+                    d = (self.pos_counts - prev + COUNTS_PER_REV // 2) % COUNTS_PER_REV - COUNTS_PER_REV // 2
+                    self.rate_arcsec_s = d * ARCSEC_PER_COUNT * 1e6 / self.read_period_us
+                self._prev_counts = self.pos_counts
                 self.have_position = True
                 self._update_limits()
         elif self._crc_fault_us is None or now_us - self._crc_fault_us >= CRC_FAULT_MIN_INTERVAL_US:
@@ -209,14 +227,21 @@ class PositionReader(Board):
     def _update_limits(self) -> None:
         a = self.angle_deg
         h = self.hysteresis_arcsec / 3600.0
+        sf = self.safety
+        # a rate above twice the slew rate is a position jump, not motion (documented)
+        cap = sf.max_zone_rate_arcsec_s
+        v = max(-cap, min(cap, self.rate_arcsec_s))
+        tol = sf.brake_stop_tol_arcsec_s
         f = self.limit_flags
-        if a <= self.low_limit_deg:
+        zone_lo = sf.braking_distance_arcsec(v) / 3600.0 if v < 0 else 0.0
+        zone_hi = sf.braking_distance_arcsec(v) / 3600.0 if v > 0 else 0.0
+        if a <= self.low_limit_deg + zone_lo:
             f |= LIMIT_LOW
-        elif a > self.low_limit_deg + h:
+        elif a > self.low_limit_deg + h and v > -tol:
             f &= ~LIMIT_LOW
-        if a >= self.high_limit_deg:
+        if a >= self.high_limit_deg - zone_hi:
             f |= LIMIT_HIGH
-        elif a < self.high_limit_deg - h:
+        elif a < self.high_limit_deg - h and v < tol:
             f &= ~LIMIT_HIGH
         self.limit_flags = f
 

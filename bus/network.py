@@ -15,8 +15,24 @@ Model
   exactly ``bits`` µs at 1 Mbit/s, including the 3-bit intermission), then it is delivered to
   every *other* attached bus with ``timestamp = end_us / 1e6`` and the next arbitration runs at
   once among the frames pending at that moment.
-* Not modelled: error frames, bit errors, ACK failure, bus-off, overload frames, remote frames
-  (refused), extended ids (refused), CAN FD, oscillator tolerance.
+* Fault confinement (ISO 11898-1 §12), active only once a fault is injected (the fault-free
+  path is unchanged): see :class:`NodeErrorState` and :meth:`CanNetwork.inject_errors`. A frame
+  that meets an error occupies the bus up to the bit where the error is detected, then an error
+  frame follows (6-bit error flag + 6 echoed flag bits + 8-bit delimiter + 3-bit intermission =
+  23 bit times, the worst-case superposition), the transmitter's TEC += 8, every receiver's
+  REC += 1, and the frame goes back to the head of its sender's queue: it is retransmitted
+  automatically at the next arbitration. An error-passive transmitter waits 8 more bit times
+  (suspend transmission) before it may compete again. TEC > 255 puts the node bus-off: its queued
+  frames are dropped and ``send`` raises ``can.CanOperationError`` until recovery, which takes
+  128 occurrences of 11 consecutive recessive bits once requested (each completed frame's
+  ACK delimiter + EOF + intermission is one occurrence, idle bus time counts one per 11 bit
+  times). Successful transmit: TEC −= 1; successful receive: REC −= 1 (an REC above 127 is set
+  to 127). Error-passive at TEC or REC ≥ 128, error-active again when both are ≤ 127.
+* Simplifications (written down): a receiver's +8 for a dominant bit after its own error flag
+  and the ACK-error exception for error-passive transmitters are not modelled; every receiver
+  that is not bus-off detects every error; overload frames are not modelled.
+* Not modelled: overload frames, remote frames (refused), extended ids (refused), CAN FD,
+  oscillator tolerance.
 
 Registry
 --------
@@ -27,6 +43,7 @@ closes the old one (its buses are detached). :meth:`CanNetwork.close` unregister
 
 from __future__ import annotations
 
+import random
 from collections import deque
 from functools import lru_cache
 
@@ -36,7 +53,17 @@ from bus.errors import BusError
 from bus.scheduler import PRIO_CAN, Scheduler
 
 __all__ = ["CanNetwork", "get_network", "frame_bits", "frame_bits_unstuffed", "crc15",
-           "WINDOW_US"]
+           "WINDOW_US", "NodeErrorState", "ErrorRule", "ERROR_ACTIVE", "ERROR_PASSIVE", "BUS_OFF",
+           "ERROR_FRAME_BITS", "RECOVERY_OCCURRENCES"]
+
+#: Fault-confinement states (ISO 11898-1 §12.1).
+ERROR_ACTIVE, ERROR_PASSIVE, BUS_OFF = "error-active", "error-passive", "bus-off"
+#: Bits of an active error frame incl. intermission: 6 flag + 6 echoed + 8 delimiter + 3 IFS.
+ERROR_FRAME_BITS = 23
+#: Suspend-transmission time of an error-passive transmitter, bits (ISO 11898-1).
+SUSPEND_BITS = 8
+#: Bus-off recovery: this many occurrences of 11 consecutive recessive bits.
+RECOVERY_OCCURRENCES = 128
 
 #: Width of the windows over which ``stats()["peak_load_pct"]`` is taken, µs.
 WINDOW_US = 100_000
@@ -221,6 +248,114 @@ class _Pending:
         self.seq = seq
 
 
+class NodeErrorState:
+    """Fault-confinement state of one attached node (what a controller's TEC/REC registers hold).
+
+    Attributes
+    ----------
+    tec, rec : int
+        Transmit / receive error counters (0..256 / 0..255+).
+    state : str
+        :data:`ERROR_ACTIVE`, :data:`ERROR_PASSIVE` or :data:`BUS_OFF`.
+    tx_errors, rx_errors : int
+        Errors met as transmitter / detected as receiver.
+    retransmissions : int
+        Frames put back for automatic retransmission after an error.
+    bus_off_count : int
+        Times the node went bus-off.
+    dropped_bus_off : int
+        Frames discarded because the node was (or went) bus-off.
+    frames_lost : int
+        Frames this node did not receive because of an injected ``loss`` rule.
+    recovery_requested : bool
+        True while a bus-off recovery is pending.
+    """
+
+    __slots__ = ("name", "tec", "rec", "state", "tx_errors", "rx_errors", "retransmissions",
+                 "bus_off_count", "dropped_bus_off", "frames_lost", "recovery_requested",
+                 "auto_recover", "_rec_t0", "_rec_busy0", "_rec_frames0", "_rec_event",
+                 "suspend_until_us")
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self.tec = self.rec = 0
+        self.state = ERROR_ACTIVE
+        self.tx_errors = self.rx_errors = self.retransmissions = 0
+        self.bus_off_count = self.dropped_bus_off = self.frames_lost = 0
+        self.recovery_requested = False
+        self.auto_recover = False
+        self._rec_t0 = self._rec_busy0 = self._rec_frames0 = 0
+        self._rec_event = None
+        self.suspend_until_us = 0
+
+    def _update_state(self) -> None:
+        if self.state == BUS_OFF:
+            return
+        if self.tec > 255:
+            self.state = BUS_OFF
+            self.bus_off_count += 1
+        elif self.tec >= 128 or self.rec >= 128:
+            self.state = ERROR_PASSIVE
+        else:
+            self.state = ERROR_ACTIVE
+
+    def as_dict(self) -> dict:
+        """Counters as a plain dict (for reports)."""
+        return {"tec": self.tec, "rec": self.rec, "state": self.state,
+                "tx_errors": self.tx_errors, "rx_errors": self.rx_errors,
+                "retransmissions": self.retransmissions, "bus_off_count": self.bus_off_count,
+                "dropped_bus_off": self.dropped_bus_off, "frames_lost": self.frames_lost}
+
+
+class ErrorRule:
+    """One injected fault on the wire (see :meth:`CanNetwork.inject_errors`)."""
+
+    __slots__ = ("kind", "ids", "sender", "receivers", "probability", "remaining", "start_us",
+                 "end_us", "hits")
+
+    def __init__(self, kind, ids, sender, receivers, probability, count, start_us, end_us):
+        self.kind = kind
+        self.ids = ids
+        self.sender = sender
+        self.receivers = receivers
+        self.probability = probability
+        self.remaining = count
+        self.start_us = start_us
+        self.end_us = end_us
+        self.hits = 0
+
+    def matches(self, now_us: int, sender, aid: int, rng) -> bool:
+        if self.remaining is not None and self.remaining <= 0:
+            return False
+        if now_us < self.start_us or (self.end_us is not None and now_us >= self.end_us):
+            return False
+        if self.ids is not None and aid not in self.ids:
+            return False
+        if self.sender is not None and sender is not self.sender:
+            return False
+        if self.probability < 1.0 and rng.random() >= self.probability:
+            return False
+        if self.remaining is not None:
+            self.remaining -= 1
+        self.hits += 1
+        return True
+
+
+class _InjectedNode:
+    """A node that only transmits (the babbling node of :meth:`CanNetwork.babble`)."""
+
+    receive_own_messages = False
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    def _deliver(self, msg) -> bool:
+        return False
+
+    def _fire(self, now_us: int) -> None:
+        pass
+
+
 class CanNetwork:
     """One shared CAN 2.0A bus in simulated time.
 
@@ -268,6 +403,14 @@ class CanNetwork:
         self.closed = False
         self._taps: list = []
         self._owner = f"can:{channel}"
+        # fault confinement (inactive until a fault is injected: fast path unchanged)
+        self._faulty = False
+        self._rules: list = []
+        self._errors: dict = {}          # id(bus) -> NodeErrorState
+        self.rng = random.Random(0)
+        self.error_frames = 0
+        self.error_bits = 0
+        self._babblers: dict = {}
         _REGISTRY[channel] = self
 
     # -- membership -------------------------------------------------------------------------
@@ -278,12 +421,14 @@ class CanNetwork:
         if bus not in self._buses:
             self._buses.append(bus)
             self._queues[id(bus)] = deque()
+            self._errors[id(bus)] = NodeErrorState(getattr(bus, "name", repr(bus)))
 
     def detach(self, bus) -> None:
         """Detach a bus; its queued, not yet started frames are dropped."""
         if bus in self._buses:
             self._buses.remove(bus)
             self._npending -= len(self._queues.pop(id(bus)))
+            self._errors.pop(id(bus), None)
 
     @property
     def buses(self) -> tuple:
@@ -325,6 +470,12 @@ class CanNetwork:
         data = bytes(msg.data)
         if len(data) > 8:
             raise BusError(f"CAN 2.0A carries at most 8 data bytes, got {len(data)}")
+        if self._faulty:
+            es = self._errors[id(bus)]
+            if es.state == BUS_OFF:
+                es.dropped_bus_off += 1
+                raise can.CanOperationError(f"{es.name}: CAN controller is bus-off "
+                                            f"(TEC {es.tec}); frame 0x{aid:03X} not sent")
         self._seq += 1
         self._npending += 1
         queue.append(_Pending(bus, msg, aid, data, self.scheduler.now_us, self._seq))
@@ -340,12 +491,32 @@ class CanNetwork:
             return
         best = None
         best_key = None
-        for queue in self._queues.values():
-            if queue:
-                head = queue[0]
-                key = (head.arbitration_id, head.seq)
-                if best_key is None or key < best_key:
-                    best, best_key = head, key
+        if self._faulty:
+            errs = self._errors
+            wake = None
+            for key_id, queue in self._queues.items():
+                if queue:
+                    su = errs[key_id].suspend_until_us
+                    if su > now_us:          # error-passive transmitter in suspend transmission
+                        wake = su if wake is None or su < wake else wake
+                        continue
+                    head = queue[0]
+                    key = (head.arbitration_id, head.seq)
+                    if best_key is None or key < best_key:
+                        best, best_key = head, key
+            if best is None:
+                self._busy = False
+                if wake is not None:
+                    self._arb_scheduled = True
+                    self.scheduler.call_at(wake, self._arbitrate, PRIO_CAN, owner=self._owner)
+                return
+        else:
+            for queue in self._queues.values():
+                if queue:
+                    head = queue[0]
+                    key = (head.arbitration_id, head.seq)
+                    if best_key is None or key < best_key:
+                        best, best_key = head, key
         if best is None:
             self._busy = False
             return
@@ -357,6 +528,11 @@ class CanNetwork:
         else:
             dur_us = -((-bits * 1_000_000) // self.bitrate)
         self._busy = True
+        if self._faulty and self._rules:
+            rule = self._match(now_us, best, "corrupt")
+            if rule is not None:
+                self._error_on_wire(now_us, best, bits)
+                return
         latency = now_us - best.submit_us
         aid = best.arbitration_id
         if latency > self.max_latency_us.get(aid, -1):
@@ -382,6 +558,9 @@ class CanNetwork:
         pending = self._current
         self._current = None
         sender = pending.bus
+        lost = None
+        if self._faulty:
+            lost = self._after_success(now_us, pending)
 
         msg = can.Message(timestamp=now_us / 1e6, arbitration_id=pending.arbitration_id,
                           is_extended_id=False, data=bytearray(pending.data),
@@ -391,6 +570,8 @@ class CanNetwork:
         interrupts = []
         for bus in self._buses:
             if bus is not sender:
+                if lost is not None and bus in lost:
+                    continue
                 fire = bus._deliver(msg)
             elif getattr(bus, "receive_own_messages", False):
                 fire = bus._deliver(can.Message(timestamp=msg.timestamp, arbitration_id=msg.arbitration_id,
@@ -406,6 +587,246 @@ class CanNetwork:
         for bus in interrupts:
             bus._fire(now_us)
         self._arbitrate(now_us)
+
+    # -- fault confinement and injection ------------------------------------------------------
+    def _match(self, now_us: int, pending, kind: str):
+        rng = self.rng
+        for rule in self._rules:
+            if rule.kind == kind and rule.matches(now_us, pending.bus, pending.arbitration_id, rng):
+                return rule
+        return None
+
+    def _bit_us(self, bits: int) -> int:
+        if self.bitrate == 1_000_000:
+            return bits
+        return -((-bits * 1_000_000) // self.bitrate)
+
+    def _error_on_wire(self, now_us: int, pending, bits: int) -> None:
+        """The frame meets an error: partial frame + error frame on the wire, counters, retry."""
+        # error detected somewhere between the first identifier bit and the ACK delimiter
+        err_bit = self.rng.randint(2, bits - 12)
+        total = err_bit + ERROR_FRAME_BITS
+        dur_us = self._bit_us(total)
+        self.error_frames += 1
+        self.error_bits += total
+        self.bits += total
+        self.busy_us += dur_us
+        win = self._window_busy
+        t, end = now_us, now_us + dur_us
+        while t < end:
+            w = t // WINDOW_US
+            upto = min(end, (w + 1) * WINDOW_US)
+            win[w] = win.get(w, 0) + upto - t
+            t = upto
+        errs = self._errors
+        tx = errs[id(pending.bus)]
+        tx.tx_errors += 1
+        tx.tec += 8
+        tx._update_state()
+        for bus in self._buses:
+            if bus is not pending.bus:
+                es = errs[id(bus)]
+                if es.state != BUS_OFF:
+                    es.rx_errors += 1
+                    es.rec += 1
+                    es._update_state()
+        if tx.state == BUS_OFF:
+            q = self._queues[id(pending.bus)]
+            tx.dropped_bus_off += 1 + len(q)
+            self._npending -= len(q)
+            q.clear()
+            if tx.auto_recover:
+                self._start_recovery(tx, now_us + dur_us)
+        else:
+            tx.retransmissions += 1
+            self._queues[id(pending.bus)].appendleft(pending)     # automatic retransmission
+            self._npending += 1
+            if tx.state == ERROR_PASSIVE:
+                tx.suspend_until_us = now_us + dur_us + self._bit_us(SUSPEND_BITS)
+        self.scheduler.call_at(now_us + dur_us, self._arbitrate, PRIO_CAN, owner=self._owner)
+        self._arb_scheduled = True
+
+    def _after_success(self, now_us: int, pending):
+        """Counter decrements after a frame completed; returns the receivers that lose it."""
+        errs = self._errors
+        tx = errs.get(id(pending.bus))
+        if tx is not None and tx.tec:
+            tx.tec -= 1
+            tx._update_state()
+        for bus in self._buses:
+            if bus is not pending.bus:
+                es = errs[id(bus)]
+                if es.rec:
+                    es.rec = 127 if es.rec > 127 else es.rec - 1
+                    es._update_state()
+        if pending.bus in self._babblers.values():
+            self._refill_babbler(pending.bus, now_us)
+        if not self._rules:
+            return None
+        rule = self._match(now_us, pending, "loss")
+        if rule is None:
+            return None
+        lost = set(self._buses) if rule.receivers is None else set(rule.receivers)
+        for bus in lost:
+            es = errs.get(id(bus))
+            if es is not None and bus is not pending.bus:
+                es.frames_lost += 1
+        return lost
+
+    def _enable_faults(self) -> None:
+        self._faulty = True
+
+    def inject_errors(self, *, kind: str = "corrupt", ids=None, sender=None, receivers=None,
+                      probability: float = 1.0, count: int | None = None, start_us: int | None = None,
+                      end_us: int | None = None) -> ErrorRule:
+        """Inject a fault on the wire.
+
+        Parameters
+        ----------
+        kind : {"corrupt", "loss"}
+            ``corrupt``: the matching transmission meets an error (bit/stuff/CRC/form error seen
+            by every node): error frame, TEC/REC, automatic retransmission.
+            ``loss``: the frame completes on the wire but the ``receivers`` (default all) do not
+            get it (a receiver that misses a frame without signalling an error).
+        ids : iterable of int, optional
+            Only frames with these identifiers (default all).
+        sender : bus, optional
+            Only frames sent by this attached bus (its node).
+        receivers : iterable of bus, optional
+            ``loss`` only: the receivers that miss the frame.
+        probability : float
+            Each matching transmission is hit with this probability (drawn from :attr:`rng`,
+            seeded by :meth:`seed`; no wall clock).
+        count : int, optional
+            At most this many hits.
+        start_us, end_us : int, optional
+            Active window of simulated time (default from now, no end).
+
+        Returns
+        -------
+        ErrorRule
+            The rule (``hits`` counts its effect); :meth:`remove_rule` removes it.
+
+        Raises
+        ------
+        BusError
+            Unknown kind, probability outside [0, 1], a sender/receiver not attached.
+        """
+        if kind not in ("corrupt", "loss"):
+            raise BusError(f"inject_errors: kind must be 'corrupt' or 'loss', got {kind!r}")
+        probability = float(probability)
+        if not 0.0 <= probability <= 1.0:
+            raise BusError(f"inject_errors: probability must be in [0, 1], got {probability}")
+        if sender is not None and sender not in self._buses:
+            raise BusError(f"inject_errors: sender {sender!r} is not attached to {self.channel!r}")
+        if receivers is not None:
+            receivers = tuple(receivers)
+            for r in receivers:
+                if r not in self._buses:
+                    raise BusError(f"inject_errors: receiver {r!r} is not attached to {self.channel!r}")
+        rule = ErrorRule(kind, None if ids is None else frozenset(int(i) for i in ids), sender,
+                         receivers, probability, None if count is None else int(count),
+                         self.scheduler.now_us if start_us is None else int(start_us),
+                         None if end_us is None else int(end_us))
+        self._rules.append(rule)
+        self._enable_faults()
+        return rule
+
+    def remove_rule(self, rule: ErrorRule) -> None:
+        """Stop an injected fault (idempotent)."""
+        if rule in self._rules:
+            self._rules.remove(rule)
+
+    def seed(self, seed: int) -> None:
+        """Seed the network's fault RNG (deterministic runs)."""
+        self.rng.seed(int(seed))
+
+    def drive_bus_off(self, bus, *, auto_recover: bool = False) -> ErrorRule:
+        """Corrupt every frame ``bus`` sends until it is bus-off (32 transmit errors).
+
+        The rule removes itself once the node is bus-off; with ``auto_recover`` the node then
+        starts the 128 × 11 recessive-bit recovery at once (else call :meth:`request_recovery`).
+        """
+        es = self.error_state(bus)
+        es.auto_recover = bool(auto_recover)
+        return self.inject_errors(sender=bus, count=max(1, (256 - es.tec + 7) // 8))
+
+    def request_recovery(self, bus) -> None:
+        """The controller of ``bus`` is told to leave bus-off (128 × 11 recessive bits)."""
+        es = self.error_state(bus)
+        if es.state == BUS_OFF and not es.recovery_requested:
+            self._start_recovery(es, self.scheduler.now_us)
+
+    def _start_recovery(self, es: NodeErrorState, t_us: int) -> None:
+        es.recovery_requested = True
+        es._rec_t0 = t_us
+        es._rec_busy0 = self.busy_us
+        es._rec_frames0 = self.frames
+        self.scheduler.call_at(t_us + self._bit_us(RECOVERY_OCCURRENCES * 11),
+                               lambda now, es=es: self._check_recovery(es, now), PRIO_CAN,
+                               owner=self._owner)
+
+    def _check_recovery(self, es: NodeErrorState, now_us: int) -> None:
+        if es.state != BUS_OFF or not es.recovery_requested:
+            return
+        # occurrences: completed frames end with 11 recessive bits; idle time 1 per 11 bit times
+        idle_us = (now_us - es._rec_t0) - (self.busy_us - es._rec_busy0)
+        bit_us = self._bit_us(1)
+        occ = (self.frames - es._rec_frames0) + max(0, idle_us) // (11 * bit_us)
+        if occ >= RECOVERY_OCCURRENCES:
+            es.tec = es.rec = 0
+            es.state = ERROR_ACTIVE
+            es.recovery_requested = False
+            return
+        self.scheduler.call_at(now_us + self._bit_us((RECOVERY_OCCURRENCES - occ) * 11),
+                               lambda now, es=es: self._check_recovery(es, now), PRIO_CAN,
+                               owner=self._owner)
+
+    def babble(self, arbitration_id: int, data: bytes = bytes(8), *, name: str = "babbler",
+               start_us: int | None = None, end_us: int | None = None) -> None:
+        """A babbling node: from ``start_us`` to ``end_us`` it sends ``arbitration_id`` back to
+        back (a new frame as soon as the last one completes), winning every arbitration against
+        higher identifiers. The frames are valid and delivered (receivers' filters apply)."""
+        if name in self._babblers:
+            raise BusError(f"babble: a babbling node {name!r} already exists")
+        node = _InjectedNode(name)
+        node._babble = (int(arbitration_id), bytes(data), end_us)
+        self.attach(node)
+        self._babblers[name] = node
+        self._enable_faults()
+        t0 = self.scheduler.now_us if start_us is None else int(start_us)
+        self.scheduler.call_at(t0, lambda now, n=node: self._refill_babbler(n, now), PRIO_CAN,
+                               owner=self._owner)
+
+    def _refill_babbler(self, node, now_us: int) -> None:
+        aid, data, end_us = node._babble
+        if node not in self._buses or (end_us is not None and now_us >= end_us):
+            return
+        if not self._queues[id(node)]:
+            self.submit(node, can.Message(arbitration_id=aid, data=data, is_extended_id=False))
+
+    def error_state(self, bus) -> NodeErrorState:
+        """The :class:`NodeErrorState` of an attached bus (its TEC/REC registers).
+
+        Raises
+        ------
+        BusError
+            If ``bus`` is not attached.
+        """
+        es = self._errors.get(id(bus))
+        if es is None:
+            raise BusError(f"{bus!r} is not attached to CanNetwork {self.channel!r}")
+        return es
+
+    def error_counters(self) -> dict:
+        """Per-node fault-confinement counters {node name: NodeErrorState.as_dict()}, in attach
+        order; a name used by several buses gets ``#k`` (k = attach index) appended."""
+        out = {}
+        names = [es.name for es in self._errors.values()]
+        for k, es in enumerate(self._errors.values()):
+            key = es.name if names.count(es.name) == 1 else f"{es.name}#{k}"
+            out[key] = es.as_dict()
+        return out
 
     def add_tap(self, fn) -> None:
         """Call ``fn(msg)`` with every frame at the end of its transmission (a bus monitor,
@@ -455,6 +876,8 @@ class CanNetwork:
             "per_id": dict(sorted(self.per_id.items())),
             "max_latency_us": dict(sorted(self.max_latency_us.items())),
             "pending": self.pending_frames(),
+            "error_frames": self.error_frames,
+            "error_bits": self.error_bits,
         }
 
     def __repr__(self) -> str:

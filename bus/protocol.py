@@ -162,7 +162,7 @@ class Axis(IntEnum):
 
 class FaultCode(IntEnum):
     """The project's fault code: ``EMCY`` byte 3 (was ``FAULT`` byte 1). 0 = a CANopen error with no
-    project code (heartbeat lost); codes 7-12 are issue 11's (same values on its branch)."""
+    project code (heartbeat lost); 7-12 from issue 11 (FAULT_CLEARED = the EMCY error reset)."""
 
     NONE = 0
     MALFORMED_FRAME = 1
@@ -171,12 +171,12 @@ class FaultCode(IntEnum):
     LIMIT_STOP = 4
     WATCHDOG = 5
     STEP_LOSS = 6    #: focus: half-steps commanded but not seen on the motor encoder
-    COMMAND_REFUSED = 7  #: a command refused (e.g. toward an active limit); detail = command
-    BRAKE_CUT = 8        #: issue 11: braking supervisor cut the duty
-    READER_LOST = 9      #: issue 11: position reader silent or invalid
-    HOST_TIMEOUT = 10    #: issue 11: host watchdog expired
-    FAULT_CLEARED = 11   #: issue 11's FAULT_CLEARED; on CANopen the EMCY error reset (code 0)
-    OVERSPEED = 12       #: issue 11: axis faster than the overspeed limit
+    COMMAND_REFUSED = 7  #: a command outside its documented limits; detail = reason << 8 | cmd
+    BRAKE_CUT = 8        #: braking supervisor cut the duty (axis did not slow down); detail |ω| ″/s
+    READER_LOST = 9      #: axis: position reader silent (detail 1) or reporting invalid (2)
+    HOST_TIMEOUT = 10    #: axis: host watchdog expired, controlled stop; detail = timeout ms
+    FAULT_CLEARED = 11   #: the fault condition whose code is in ``detail`` has cleared
+    OVERSPEED = 12       #: axis faster than the overspeed limit (e.g. OPEN_LOOP): braking stop; detail |ω| ″/s
 
 
 class AxisMode(IntEnum):

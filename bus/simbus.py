@@ -82,6 +82,8 @@ class SimBus(can.BusABC):
 
         Raises
         ------
+        can.CanOperationError
+            While this node is bus-off (fault confinement, :mod:`bus.network`).
         bus.errors.BusError
             After shutdown, or for frames the network does not emulate (extended, remote, FD,
             more than 8 bytes).
@@ -145,6 +147,16 @@ class SimBus(can.BusABC):
     def flush_rx(self) -> None:
         """Drop every frame waiting to be read."""
         self._rx.clear()
+
+    # -- fault confinement ------------------------------------------------------------------
+    @property
+    def error_state(self):
+        """This node's :class:`~bus.network.NodeErrorState` (TEC, REC, state, counters)."""
+        return self.network.error_state(self)
+
+    def request_recovery(self) -> None:
+        """Ask the controller to leave bus-off (takes 128 × 11 recessive bits)."""
+        self.network.request_recovery(self)
 
     # -- lifecycle --------------------------------------------------------------------------
     def shutdown(self) -> None:

@@ -12,7 +12,8 @@ import importlib
 import sys
 
 #: Subcommand modules, in help order.
-SUBCOMMANDS = ("host.cli_run", "host.cli_serve", "host.cli_bench", "host.cli_calibrate", "host.cli_validate")
+SUBCOMMANDS = ("host.cli_run", "host.cli_serve", "host.cli_bench", "host.cli_calibrate", "host.cli_validate",
+               "host.cli_identify_mesh", "host.cli_validate_paper", "host.cli_fuzz")
 
 
 def build_parser() -> argparse.ArgumentParser:

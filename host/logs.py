@@ -3,14 +3,117 @@
 Each log is a plain text file, one record per line, whitespace-separated columns under a ``#``
 header naming them with units; time is simulated seconds with microsecond resolution. Lines are
 flushed as they are written, so a run that stops on an error keeps everything logged before it.
+
+Whole lines only (issue 11): every file is written through :class:`LineFile`, which hands the
+operating system complete lines only and, if a write fails part-way (disk full, read-only file
+system, I/O error), truncates the file back to the end of the last complete line and raises
+:class:`LogWriteError` naming the file. ``close()`` flushes on every exit path (it is also what
+``with`` and the runner's ``finally`` call) and closes every file even if one of them fails.
+
+Strings that come from a scenario or from the bus (names, command details) are sanitised by
+:func:`sanitize` before they reach a log: control characters (newline, carriage return, tab,
+escape ...) and non-ASCII characters become ``\\xNN`` escapes, so no input can add or split a
+line.
 """
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
-from typing import TextIO
 
-__all__ = ["HostLogs", "CandumpWriter", "SENSOR_COLUMNS", "LOG_FILES", "CANDUMP_LOG"]
+from bus.errors import SchmidtFilError
+
+__all__ = ["HostLogs", "CandumpWriter", "SENSOR_COLUMNS", "LOG_FILES", "CANDUMP_LOG", "LineFile",
+           "LogWriteError", "sanitize"]
+
+
+class LogWriteError(SchmidtFilError, OSError):
+    """A log file could not be written (disk full, read-only, I/O error); names the file."""
+
+
+def sanitize(text: object) -> str:
+    """``str(text)`` with every character outside printable ASCII (0x20..0x7E) escaped as
+    ``\\xNN`` / ``\\uNNNN``, so it cannot add or split a log line."""
+    s = str(text)
+    if s.isascii() and s.isprintable():
+        return s
+    return "".join(c if " " <= c <= "~" else (f"\\x{ord(c):02x}" if ord(c) < 256 else f"\\u{ord(c):04x}")
+                   for c in s)
+
+
+class LineFile:
+    """An append-only text file written in whole lines.
+
+    Parameters
+    ----------
+    path : Path
+        Created (truncated).
+    buffer_bytes : int
+        Lines are collected until this many bytes, then written with ``os.write`` (0: every
+        line at once, as a line-buffered file).
+
+    Raises
+    ------
+    LogWriteError
+        On opening, or on a failed write: the file is cut back to its last complete line and
+        the error names it.
+    """
+
+    def __init__(self, path: Path, buffer_bytes: int = 0) -> None:
+        self.path = Path(path)
+        try:
+            self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+        except OSError as exc:
+            raise LogWriteError(exc.errno, f"cannot open log {self.path}: {exc.strerror}") from None
+        self._buf: list = []
+        self._nbuf = 0
+        self._limit = int(buffer_bytes)
+        self.committed_bytes = 0      # bytes of complete lines on disk
+        self.closed = False
+        self.failed: LogWriteError | None = None
+
+    def write_line(self, line: str) -> None:
+        """Queue one line (without its newline; must not contain one)."""
+        if self.failed is not None:
+            raise self.failed
+        data = (line + "\n").encode("ascii", "backslashreplace")
+        self._buf.append(data)
+        self._nbuf += len(data)
+        if self._nbuf > self._limit:
+            self.flush()
+
+    def flush(self) -> None:
+        """Write the queued lines (whole lines only; see the class doc)."""
+        if not self._buf or self.closed:
+            return
+        data = b"".join(self._buf)
+        self._buf.clear()
+        self._nbuf = 0
+        view = memoryview(data)
+        done = 0
+        try:
+            while done < len(data):
+                done += os.write(self._fd, view[done:])
+        except OSError as exc:
+            try:                          # cut back to the last complete line
+                os.ftruncate(self._fd, self.committed_bytes)
+            except OSError:
+                pass
+            self.failed = LogWriteError(exc.errno, f"cannot write log {self.path}: {exc.strerror} "
+                                        f"(kept {self.committed_bytes} bytes of whole lines)")
+            raise self.failed from None
+        self.committed_bytes += len(data)
+
+    def close(self) -> None:
+        """Flush and close (idempotent); the file is closed even if the flush fails."""
+        if self.closed:
+            return
+        try:
+            if self.failed is None:
+                self.flush()
+        finally:
+            self.closed = True
+            os.close(self._fd)
 
 #: File names of the four logs.
 LOG_FILES = {
@@ -65,24 +168,29 @@ class HostLogs:
     def __init__(self, out_dir: Path, header: str = ""):
         out_dir.mkdir(parents=True, exist_ok=True)
         self.paths = {k: out_dir / v for k, v in LOG_FILES.items()}
-        self._files: dict[str, TextIO] = {
-            k: p.open("w", encoding="ascii", errors="replace", buffering=1) for k, p in self.paths.items()
-        }
+        self._files: dict[str, LineFile] = {}
+        try:
+            for k, p in self.paths.items():
+                self._files[k] = LineFile(p)
+        except LogWriteError:
+            self.close()
+            raise
+        header = sanitize(header)
         for k, f in self._files.items():
-            f.write(f"# schmidt-fil {k} log; {header}\n")
-        self._files["commands"].write("# t_s  target  command  detail\n")
-        self._files["status"].write("# t_s  node  board  event  detail\n")
-        self._files["sensor"].write("# " + " ".join(SENSOR_COLUMNS) + "\n")
-        self._files["errors"].write("# t_s  source  error  detail\n")
+            f.write_line(f"# schmidt-fil {k} log; {header}")
+        self._files["commands"].write_line("# t_s  target  command  detail")
+        self._files["status"].write_line("# t_s  node  board  event  detail")
+        self._files["sensor"].write_line("# " + " ".join(SENSOR_COLUMNS))
+        self._files["errors"].write_line("# t_s  source  error  detail")
         self.counts = {k: 0 for k in LOG_FILES}
 
     def command(self, t_us: int, target: str, command: str, detail: str = "") -> None:
         """Log a command sent by the host."""
-        self._write("commands", f"{_t(t_us)} {target} {command} {detail}".rstrip())
+        self._write("commands", f"{_t(t_us)} {sanitize(target)} {sanitize(command)} {sanitize(detail)}".rstrip())
 
     def status(self, t_us: int, node: int, board: str, event: str, detail: str = "") -> None:
         """Log a device-status event (heartbeat state change, mode change, limit, fault)."""
-        self._write("status", f"{_t(t_us)} {node} {board} {event} {detail}".rstrip())
+        self._write("status", f"{_t(t_us)} {node} {sanitize(board)} {sanitize(event)} {sanitize(detail)}".rstrip())
 
     def sensor(self, t_us: int, values: tuple) -> None:
         """Log one row of sensor data (columns :data:`SENSOR_COLUMNS` after ``t_s``)."""
@@ -90,17 +198,23 @@ class HostLogs:
 
     def error(self, t_us: int, source: str, error: str, detail: str = "") -> None:
         """Log an error (fault frame, malformed frame, missing board, timeout)."""
-        self._write("errors", f"{_t(t_us)} {source} {error} {detail}".rstrip())
+        self._write("errors", f"{_t(t_us)} {sanitize(source)} {sanitize(error)} {sanitize(detail)}".rstrip())
 
     def _write(self, which: str, line: str) -> None:
-        self._files[which].write(line + "\n")
+        self._files[which].write_line(line)
         self.counts[which] += 1
 
     def close(self) -> None:
-        """Flush and close every log (idempotent)."""
+        """Flush and close every log (idempotent); all are closed even if one fails, then the
+        first :class:`LogWriteError` is raised."""
+        first = None
         for f in self._files.values():
-            if not f.closed:
+            try:
                 f.close()
+            except LogWriteError as exc:
+                first = first or exc
+        if first is not None:
+            raise first
 
     def __enter__(self) -> "HostLogs":
         return self
@@ -124,25 +238,23 @@ class CandumpWriter:
 
     def __init__(self, path: Path, channel: str = "can0"):
         self.path = Path(path)
-        self.channel = channel
+        self.channel = sanitize(channel)
         self.frames = 0
-        self._f = self.path.open("w", encoding="ascii", buffering=1 << 16)
+        self._f = LineFile(self.path, buffer_bytes=1 << 16)
 
     def write(self, msg) -> None:
         """Log one ``can.Message``; its ``timestamp`` [s] is written as it is (simulated time on
         the in-process bus, the kernel's wall-clock time on SocketCAN)."""
-        self._f.write(f"({msg.timestamp:.6f}) {self.channel} {msg.arbitration_id:03X}#{bytes(msg.data).hex().upper()}\n")
+        self._f.write_line(f"({msg.timestamp:.6f}) {self.channel} {msg.arbitration_id:03X}#{bytes(msg.data).hex().upper()}")
         self.frames += 1
 
     def flush(self) -> None:
         """Push the buffered lines to the file (a long-running monitor calls this now and then)."""
-        if not self._f.closed:
-            self._f.flush()
+        self._f.flush()
 
     def close(self) -> None:
         """Flush and close (idempotent)."""
-        if not self._f.closed:
-            self._f.close()
+        self._f.close()
 
 
 def _fmt(v) -> str:

@@ -5,7 +5,7 @@ operator's own software on ``vcan0``/``can0``, or another Python object on the i
 Our host node then only listens, like a CAN analyser: :class:`BusMonitor` is a
 :class:`host.client.HostClient` (same decoding of status, position, focus, heartbeat, fault and
 limit frames, same ``status.log``/``errors.log`` lines) that also decodes the frames *the
-external host* sends — ``AXIS_COMMAND``, ``FOCUS_COMMAND``, ``HOST_BROADCAST`` — into
+external host* sends — ``AXIS_COMMAND``, ``FOCUS_COMMAND``, ``STOP_ALL``, ``NMT`` — into
 ``commands.log`` and into the setpoint each command means, and counts every frame by
 identifier. It refuses to command (:meth:`BusMonitor.command_axis` and friends raise).
 """

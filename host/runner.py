@@ -48,6 +48,7 @@ class _Recorder:
             current_b_a=d["ib"].astype(float),
             truth_angle_rad=d["truth"].astype(float),
             arcsec_per_count=arcsec_per_count,
+            tick_rate_arcsec_s=d["tick_rate"].astype(float),
         )
 
 
@@ -103,7 +104,8 @@ def run_scenario(
         for axis in ("ra", "dec"):
             st = client.axes[axis]
             rec.add(axis, counts=st.counts, u=st.u, mode=st.mode, setpoint=setpoints[axis],
-                    ia=st.current_a_a, ib=st.current_b_a, truth=tel.plants[axis].axis_angle_rad)
+                    ia=st.current_a_a, ib=st.current_b_a, truth=tel.plants[axis].axis_angle_rad,
+                    tick_rate=st.rate_arcsec_s)  # firmware's last per-tick rate (AXIS_AUX qei_delta)
 
     seg_spans: list[dict] = []
     total_us = int(round(scenario.duration_s * 1e6)) + client.BOOT_US + client.POWER_ON_US
@@ -181,6 +183,7 @@ def run_scenario(
         "segments": segments,
         "controller": tel.controller_summary(),
         "plant": tel.plant_summary(),
+        "gear_lines": {axis: p.gear_lines for axis, p in tel.plants.items()},  # issue 9: lines that ran
         "bus_stats": tel.bus_stats(),
         "boards": {name: {**row, "identity": client.identities.get(name),
                           "parameters": client.parameters.get(name)}

@@ -89,12 +89,14 @@ class BusConfig(_Strict):
 
 class PlantConfig(_Strict):
     """Plant parameters: the packaged parameter file, or another (e.g. calibrated) one, plus
-    dotted overrides (``axes.ra.friction.sigma0_nm_rad: 2.0e8``)."""
+    dotted overrides (``axes.ra.friction.sigma0_nm_rad: 2.0e8``). An override's value may be a list
+    (``axes.ra.effects: [{kind: position_periodic, ...}]``), so a scenario adds plant effects
+    without copying the parameter file."""
 
     parameter_file: str | None = None
     preload: Literal["low", "high"] | None = None
     perfect: bool | None = None
-    overrides: dict[str, float | int | str | bool] = Field(default_factory=dict)
+    overrides: dict[str, float | int | str | bool | list[dict[str, Any]]] = Field(default_factory=dict)
 
 
 class AxisControllerConfig(_Strict):

@@ -26,6 +26,12 @@ additive load torque of the previous midpoint [N·m].
 
 parameters ``P`` (22), built by :func:`pack_parameters`: see there.
 
+gear lines ``G``: float64 array of shape (n, 4) from
+:func:`plant.gear_train_disturbance.lines_table` (source, order, amplitude, phase), evaluated by
+:func:`gear_lines_torque_nm` at each substep's midpoint and added to the load by
+:func:`twin_run_lines` / :func:`rigid_run_lines`. :func:`twin_run` / :func:`rigid_run` pass an
+empty table, so their numbers are those of the kernel before the lines existed.
+
 Nothing here reads the clock, sleeps or keeps state between calls.
 """
 
@@ -34,8 +40,11 @@ from __future__ import annotations
 import math
 import os
 
+import numpy as np
+
 __all__ = ["JIT", "BACKEND", "interpreted", "pack_parameters", "mesh_torque_nm", "twin_midpoint", "twin_finish",
-           "twin_run", "rigid_midpoint", "rigid_finish", "rigid_run", "N_STATE"]
+           "twin_run", "rigid_midpoint", "rigid_finish", "rigid_run", "N_STATE", "gear_lines_torque_nm",
+           "twin_run_lines", "rigid_run_lines"]
 
 N_STATE = 11
 
@@ -128,6 +137,34 @@ def pack_parameters(*, n, jm, cm, k, kt, ct, hb, j, r, l, vs, friction, perfect,
 
 
 # ---------------------------------------------------------------------------------- building blocks
+
+@_jit
+def gear_lines_torque_nm(th_rad, ang_a_rad, ang_b_rad, G):
+    """Sum of the gear-train torque lines at one instant [N·m at the axis, load sign].
+
+    Parameters
+    ----------
+    th_rad : float
+        Axis angle [rad].
+    ang_a_rad, ang_b_rad : float
+        Motor angles of trains A and B reflected to the axis, φk / N [rad].
+    G : ndarray, shape (n, 4), or a tuple of n 4-tuples (interpreted use)
+        :func:`plant.gear_train_disturbance.lines_table`: source (0 axis, 1 train A, 2 train B),
+        order [cycles per axis rev], amplitude [N·m], phase [rad]. n = 0 gives exactly 0.0.
+
+    Returns
+    -------
+    float
+        Σ A sin(order · angle + phase).
+    """
+    t = 0.0
+    for i in range(len(G)):
+        row = G[i]  # row-wise indexing: fast on a tuple of tuples when interpreted, a view when compiled
+        src = row[0]
+        ang = th_rad if src == 0.0 else (ang_a_rad if src == 1.0 else ang_b_rad)
+        t += row[2] * math.sin(row[1] * ang + row[3])
+    return t
+
 
 @_jit
 def mesh_torque_nm(d_rad, rel_rate_rad_s, kt, ct, hb):
@@ -296,13 +333,17 @@ def twin_finish(X, M, P, duty_a, duty_b, h, er, fr, load):
 
 
 @_jit
-def _run(rigid, X, P, duty_a, duty_b, span_us, max_substep_us):
-    """Substep loop shared by :func:`twin_run` and :func:`rigid_run`.
+def _run(rigid, X, P, G, duty_a, duty_b, span_us, max_substep_us):
+    """Substep loop shared by :func:`twin_run` and :func:`rigid_run` (and their ``_lines`` forms).
 
     The drive model is a flag rather than a function argument so that numba can cache the
-    compiled loop on disk (functions passed as arguments make it uncacheable).
+    compiled loop on disk (functions passed as arguments make it uncacheable). ``G`` is the
+    gear-line table (shape (n, 4)); with n = 0 the load is exactly 0.0, as before the lines existed.
     """
     rl = P[9]
+    n_inv = P[0]
+    n_lines = len(G)
+    load = 0.0
     rated = P[21]
     ta = tb = ff = 0.0
     peak_a = X[5]
@@ -321,10 +362,14 @@ def _run(rigid, X, P, duty_a, duty_b, span_us, max_substep_us):
             h_last = h_us
         if rigid:
             Mr = rigid_midpoint(X, P, h)
-            X, ta, tb, ff = rigid_finish(X, Mr, P, duty_a, duty_b, h, er, fr, 0.0)
+            if n_lines > 0:
+                load = gear_lines_torque_nm(Mr[0], Mr[0], Mr[0], G)
+            X, ta, tb, ff = rigid_finish(X, Mr, P, duty_a, duty_b, h, er, fr, load)
         else:
             Mt = twin_midpoint(X, P, h)
-            X, ta, tb, ff = twin_finish(X, Mt, P, duty_a, duty_b, h, er, fr, 0.0)
+            if n_lines > 0:
+                load = gear_lines_torque_nm(Mt[0], Mt[2] * n_inv, Mt[4] * n_inv, G)
+            X, ta, tb, ff = twin_finish(X, Mt, P, duty_a, duty_b, h, er, fr, load)
         ia1 = X[5]
         ib1 = X[8]
         if ia1 > peak_a:
@@ -348,7 +393,14 @@ def twin_run(X, P, duty_a, duty_b, span_us, max_substep_us):
     the last substep's mesh and friction torques, the largest currents of the span (including
     the start) [A] and the µs spent above the rating per motor.
     """
-    return _run(False, X, P, duty_a, duty_b, span_us, max_substep_us)
+    return _run(False, X, P, np.empty((0, 4)), duty_a, duty_b, span_us, max_substep_us)
+
+
+@_jit
+def twin_run_lines(X, P, G, duty_a, duty_b, span_us, max_substep_us):
+    """:func:`twin_run` with the gear-train torque lines ``G`` (see :func:`gear_lines_torque_nm`)
+    added to the load at every substep's midpoint."""
+    return _run(False, X, P, G, duty_a, duty_b, span_us, max_substep_us)
 
 
 # ---------------------------------------------------------------------------------- rigid drive
@@ -394,4 +446,10 @@ def rigid_finish(X, M, P, duty_a, duty_b, h, er, fr, load):
 @_jit
 def rigid_run(X, P, duty_a, duty_b, span_us, max_substep_us):
     """:func:`twin_run` for the rigid drive."""
-    return _run(True, X, P, duty_a, duty_b, span_us, max_substep_us)
+    return _run(True, X, P, np.empty((0, 4)), duty_a, duty_b, span_us, max_substep_us)
+
+
+@_jit
+def rigid_run_lines(X, P, G, duty_a, duty_b, span_us, max_substep_us):
+    """:func:`twin_run_lines` for the rigid drive (every line follows the axis angle)."""
+    return _run(True, X, P, G, duty_a, duty_b, span_us, max_substep_us)

@@ -307,6 +307,10 @@ class AxisParameters:
         Effect specs ``{kind, **params}`` (built by :func:`plant.effects.build_effect`).
     perfect : bool
         Copy of the file's top-level ``perfect`` switch.
+    gear_disturbance : dict
+        Gear-train torque lines ``{line: {amplitude_nm, phase…_rad}}``, validated by
+        :func:`plant.gear_train_disturbance.parse_section` (its schema lives there; empty when the
+        file has no section).
     """
 
     name: Literal["ra", "dec"]
@@ -320,6 +324,7 @@ class AxisParameters:
     encoders: EncoderParameters
     effects: EffectSpecs
     perfect: Switch = False
+    gear_disturbance: dict = field(default_factory=dict)
 
     @property
     def reflected_motor_inertia_kg_m2(self) -> float:
@@ -454,13 +459,18 @@ def _set_path(tree: dict, path: str, value: Any) -> None:
             node = node[part]
 
 
+#: Sections validated by their own module, kept as they are by :func:`_values`.
+_RAW_SECTIONS = ("effects", "gear_disturbance")
+
+
 def _values(node: Any, path: str) -> Any:
     """The file tree with every ``{value, unit, source}`` leaf replaced by its value (effect
     lists kept as they are)."""
     if _is_leaf(node):
         return node["value"]
     if isinstance(node, dict):
-        return {k: _values(v, f"{path}.{k}" if path else k) if k != "effects" else v for k, v in node.items()}
+        return {k: _values(v, f"{path}.{k}" if path else k) if k not in _RAW_SECTIONS else v
+                for k, v in node.items()}
     raise ParameterError(f"{path or '<root>'}: expected a leaf {{value, unit, source}} or a section, got {node!r}")
 
 
@@ -505,6 +515,17 @@ def _node_at(tree: Any, loc: tuple) -> Any:
 _PLANT = TypeAdapter(PlantParameters)
 
 
+def _gear_disturbance(node: Any, axis: str) -> dict:
+    """The gear-line section of one axis, validated by its own schema
+    (:func:`plant.gear_train_disturbance.parse_section`), as plain floats."""
+    from plant.gear_train_disturbance import parse_section
+
+    try:
+        return parse_section(node, f"axes.{axis}.gear_disturbance")
+    except ValueError as exc:
+        raise ParameterError(str(exc)) from None
+
+
 def parameters_from_tree(tree: dict) -> PlantParameters:
     """Build typed parameters from a parsed file tree (no overrides), validated against the
     typed classes above (one schema).
@@ -527,6 +548,7 @@ def parameters_from_tree(tree: dict) -> PlantParameters:
         for name, axis in axes.items():
             if isinstance(axis, dict):  # the axis name and the file's perfect switch go into each axis
                 axis.update(name=name, perfect=values.get("perfect", False))
+                axis["gear_disturbance"] = _gear_disturbance(axis.get("gear_disturbance"), name)
     try:
         return _PLANT.validate_python({**values, "tree": tree})
     except ValidationError as exc:

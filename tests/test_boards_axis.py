@@ -111,9 +111,14 @@ def test_limit_frame_stops_axis_and_refuses_motion_toward_limit():
     command(bus, p.AxisCommand.SET, +1)
     s.run_until(500_000)
     bus.inject(p.limit_cob_id(3), limit_frame(p.LimitFlags.HIGH_SOFT_LIMIT))
-    assert ax.mode == AxisMode.LIMIT_STOP and ax.setpoint_arcsec_s == 0.0
+    # the reader repeats an active LIMIT every 100 ms (a single frame would expire)
+    flags = [p.LimitFlags.HIGH_SOFT_LIMIT]
+    s.call_every(100_000, lambda now: bus.inject(p.limit_cob_id(3), limit_frame(flags[0])))
+    assert ax.mode == AxisMode.LIMIT_STOP and ax.braking     # braking ramp from the measured rate
     faults = [p.decode_emcy(m.data) for m in bus.frames(p.emcy_cob_id(1))]
     assert faults[-1].fault_code == p.FaultCode.LIMIT_STOP and faults[-1].error_code == 0x8612
+    s.run_until(560_000)                                 # 600″/s at 14 400″/s² → 42 ms ramp
+    assert ax.setpoint_arcsec_s == 0.0
     s.run_until(1_500_000)
     assert abs(plant.omega) < 5.0                        # stopped (and held)
     status = p.decode_axis_status(bus.frames(p.axis_status_cob_id(1))[-1].data)
@@ -121,12 +126,13 @@ def test_limit_frame_stops_axis_and_refuses_motion_toward_limit():
     command(bus, p.AxisCommand.SLEW, +1)                 # toward the limit: refused
     assert ax.mode == AxisMode.LIMIT_STOP and ax.limit_refusals == 1
     refused = p.decode_emcy(bus.frames(p.emcy_cob_id(1))[-1].data)
-    assert refused.fault_code == p.FaultCode.COMMAND_REFUSED and refused.detail == p.AxisCommand.SLEW
+    assert refused.fault_code == p.FaultCode.COMMAND_REFUSED and refused.detail == (4 << 8) | p.AxisCommand.SLEW
     command(bus, p.AxisCommand.GUIDE, -1)                # away: accepted
     assert ax.mode == AxisMode.GUIDE and ax.setpoint_arcsec_s == -100.0
     s.run_until(1_505_000)                               # the limit stop has ended: error reset
     reset = p.decode_emcy(bus.frames(p.emcy_cob_id(1))[-1].data)
     assert reset.error_code == 0 and reset.detail == 0x8612 and reset.fault_code == p.FaultCode.LIMIT_STOP
+    flags[0] = 0
     bus.inject(p.limit_cob_id(3), limit_frame(0))        # limit left: nothing else changes
     assert ax.mode == AxisMode.GUIDE
 

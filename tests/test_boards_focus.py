@@ -31,12 +31,20 @@ def test_step_command_issues_half_steps_at_the_step_rate():
     assert steps == [1] * 10 and f.pos_halfsteps == 10 and not f.moving
 
 
-def test_move_to_is_absolute_and_clamped_to_travel():
-    """MOVE_TO −5000 is clamped to −800 half-steps (±5 mm)."""
+def test_move_to_is_absolute_and_refused_outside_travel():
+    """MOVE_TO −800 (−5 mm) is absolute; −5000 is outside the ±800 travel: refused, no step."""
     s, bus, f, steps, _ = make()
-    cmd(bus, p.FocusCommand.MOVE_TO, -5000)
+    cmd(bus, p.FocusCommand.MOVE_TO, -800)
     s.run_until(3_000_000)
     assert f.pos_halfsteps == -800 and steps.count(-1) == 800
+    cmd(bus, p.FocusCommand.MOVE_TO, -5000)
+    cmd(bus, p.FocusCommand.STEP, -1)
+    s.run_until(4_000_000)
+    assert f.pos_halfsteps == f.target_halfsteps == -800 and len(steps) == 800
+    faults = [p.decode_emcy(m.data) for m in bus.frames(p.emcy_cob_id(5))]
+    assert [(x.fault_code, x.detail) for x in faults] == [
+        (p.FaultCode.COMMAND_REFUSED, 6 << 8 | p.FocusCommand.MOVE_TO),
+        (p.FaultCode.COMMAND_REFUSED, 6 << 8 | p.FocusCommand.STEP)]
 
 
 def test_focus_status_every_250_ms_with_lvdt_counts():

@@ -134,10 +134,10 @@ def test_ranges_equal_what_todays_firmware_accepts():
 
 
 def test_emcy_codes_cover_every_project_fault_code():
-    """Every fault code of bus/protocol.py has an EMCY code (FAULT_CLEARED is the EMCY error
-    reset, code 0); codes are unique."""
-    assert {e.fault_code for e in EMCY_CODES.values()} >= (
-        {int(c) for c in proto.FaultCode} - {int(proto.FaultCode.FAULT_CLEARED)})
+    """Every FAULT code of bus/protocol.py has an EMCY code (FAULT_CLEARED is CiA 301's error
+    reset, EMCY 0x0000, not an error code of its own); codes are unique."""
+    assert {e.fault_code for e in EMCY_CODES.values()} >= {int(c) for c in proto.FaultCode} - {
+        int(proto.FaultCode.FAULT_CLEARED)}
     codes = [e.code for e in EMCY_CODES.values()]
     assert len(codes) == len(set(codes)) and 0 not in codes
 

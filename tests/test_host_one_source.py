@@ -13,6 +13,8 @@ import yaml
 from host.runner import run_scenario
 from host.scenario import parse_scenario
 
+from plant.params import load_parameters
+
 ROOT = Path(__file__).resolve().parent.parent
 
 OPEN_LOOP = """\
@@ -35,10 +37,12 @@ def _open_loop_duty_q15(tmp_path: Path, ra: str) -> int:
 def test_open_loop_duty_map_uses_the_counter_fraction_the_firmware_runs(tmp_path):
     """A scenario's counter fraction p reaches the host's open-loop duty map: the net drive of the
     twin motors is (1 − p)·d·V (paper §3.3, superposition), so the duty holding a given speed
-    must scale as 1/(1 − p) — d(p = 0.10)·0.90 = d(p = 0.25)·0.75 up to Q15 rounding."""
-    d_file = _open_loop_duty_q15(tmp_path, "{}")                      # the file's p = 0.25
+    must scale as 1/(1 − p) — d(p = 0.10)·0.90 = d(p_file)·(1 − p_file) up to Q15 rounding."""
+    p_file = load_parameters().axes["ra"].drive.counter_fraction
+    assert p_file != 0.10
+    d_file = _open_loop_duty_q15(tmp_path, "{}")                      # the file's p
     d_010 = _open_loop_duty_q15(tmp_path, "{counter_fraction: 0.10}")
-    assert d_010 * 0.90 == pytest.approx(d_file * 0.75, abs=2.0)
+    assert d_010 * 0.90 == pytest.approx(d_file * (1.0 - p_file), abs=2.0)
     assert d_010 < d_file
 
 

@@ -11,8 +11,13 @@ from plant.effects import build_effect
 from plant.params import load_parameters
 
 
+#: These tests check the motor, gear and friction laws one at a time: the gear-train torque lines
+#: (identified RA stage-1 mesh, tests/test_gear_train_disturbance.py) are switched off here.
+NO_LINES = {"axes.ra.gear_disturbance.stage1_mesh.amplitude_nm": 0.0}
+
+
 def plant(**overrides):
-    return AxisPlant(load_parameters(overrides=overrides).ra)
+    return AxisPlant(load_parameters(overrides={**NO_LINES, **overrides}).ra)
 
 
 def pi_run(ax, setpoint_arcsec_s, ticks, kp=1e-3, ki=1e-4):
@@ -134,12 +139,13 @@ def test_steady_state_matches_lugre_static_map(preload):
 
 
 def test_high_preload_tracking_exceeds_current_rating():
-    """Proportional preload law at high preload: tracking needs ≈15.7 A, reported over the 6 A rating."""
+    """Proportional preload law (p = 0.20, Table 1) at high preload: tracking needs ≈14.6 A (15.7 A with
+    p = 0.25), reported over the 6 A rating."""
     ax = plant(**{"axes.ra.friction.preload": "high"})
     pi_run(ax, 15.0, 1200)
     assert ax.axis_rate_arcsec_s == pytest.approx(15.0, abs=0.01)
     ia, ib = ax.motor_current_a
-    assert ia == pytest.approx(15.7, abs=0.3)
+    assert ia == pytest.approx(14.6, abs=0.3)
     assert ia - ib == pytest.approx(sum(ax.gear_torque_nm) / (0.35 * ax.params.gear.ratio), rel=1e-3)
     assert ax.peak_current_a[0] > 6.0 and ax.current_over_rating_us[0] > 1_000_000
 

@@ -39,7 +39,7 @@ def test_paper_numbers_in_si():
     assert ra.friction.low.tc_nm == 229 and ra.friction.high.ts_nm == 1490
     assert ra.friction.active is ra.friction.low
     assert ra.motor.rated_current_a == 6.0 and ra.motor.supply_v == 24.0 and ra.motor.shunt_ohm == 0.1
-    assert ra.drive.preload_law == "proportional" and ra.drive.counter_fraction == 0.25
+    assert ra.drive.preload_law == "proportional" and ra.drive.counter_fraction == 0.20
     assert dec.friction.low.tc_nm == pytest.approx(229 * 186 / 791, rel=1e-3)
     assert p.focus.metres_per_halfstep == pytest.approx(6.25e-6)
 

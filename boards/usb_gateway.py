@@ -1,0 +1,275 @@
+"""Firmware of the USB-HID CAN gateway (PIC18F4550 with an MCP2515 CAN controller), the host
+PC's node on the bus (paper §3.4: "A CAN-to-USB board has been developed on a PIC18F4550 ...
+configured as a HID device ... A total of 64 bytes are exchanged").
+
+A transparent bridge: it sends on CAN exactly the frames the PC puts in OUT reports and passes
+the CAN frames that its acceptance filters let through to the PC in IN reports, with a
+timestamp. It sends nothing of its own on CAN. Report layout: :mod:`bus.hid_reports`; what the
+PC sees and the limits: docs/usb-gateway.md.
+
+Execution model (simulated time; the USB host's frame event drives the USB side):
+
+* CAN receive interrupt (``schmidt-sim``) or, on a bus without one, a poll at every 1 ms SOF:
+  the frame is stamped (µs since boot) and appended to the CAN→PC queue of
+  :data:`RX_QUEUE_FRAMES`; a frame arriving at a full queue is dropped, counted in
+  ``rx_dropped`` and flagged (``RX_OVERFLOW``) in the next IN report, as a real gateway does.
+* In its start-of-frame interrupt (every 1 ms), if the IN endpoint is free and the queue holds
+  frames (or flags are pending), the firmware arms it with up to 4 frames; the host's IN token
+  of the same frame takes it (assumed: the host schedules the interrupt transfer after SOF and
+  the PIC's SOF ISR arms the buffer descriptor in time). So a frame reaches the PC at the next
+  1 ms frame boundary while the queue is short, and at most 4 frames per ms reach it.
+* OUT report interrupt: decode, send its frames on CAN in order, re-arm the OUT endpoint. A
+  malformed report is counted (``out_malformed``, reason kept), flagged (``OUT_MALFORMED``) and
+  its frames are not sent; the firmware never raises for it.
+* Feature reports: GET = status counters; SET = commands (acceptance filters, clear counters);
+  a malformed command is counted and stalled.
+
+The PIC18F4550 has no CAN module: the CAN controller is an MCP2515 on SPI (assumed; it is the
+controller the other PIC boards of the emulator use), modelled by
+:class:`boards.peripherals.CanController` with its two receive buffers.
+
+Not modelled: USB enumeration (configured at power-on), the MCP2515's three transmit buffers
+(frames go straight to the bus's queue; at ≤ 4 frames per ms the 1 Mbit/s bus keeps up unless
+others load it above ≈ 50 %), SPI transfer time, remote and extended frames (counted in
+``rx_unsupported`` and not forwarded; the report layout carries 11-bit data frames only).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Deque, Optional
+
+import can
+
+from boards.peripherals import FILTER_BEFORE_QUEUE_BUSES, CanController
+from boards.usb_hid import UsbHidInterface
+from bus import hid_reports as R
+from bus import protocol as proto
+from bus.scheduler import Scheduler
+
+__all__ = ["UsbGateway", "RX_QUEUE_FRAMES", "RESET_CAUSES"]
+
+#: CAN→PC queue depth, frames (assumed: 32 slots of 15 bytes = 480 B of the PIC18F4550's 2 KB
+#: RAM, beside 1 KB of USB buffer RAM; 8 ms of the 4-frames-per-ms USB rate).
+RX_QUEUE_FRAMES = 32
+RESET_CAUSES = ("power_on", "watchdog", "software")
+_U32 = (1 << 32) - 1
+
+
+class UsbGateway:
+    """The USB-HID CAN gateway board.
+
+    Parameters
+    ----------
+    scheduler : Scheduler
+        The simulation clock.
+    bus : can.BusABC
+        The gateway's CAN bus handle (``schmidt-sim`` gives the receive interrupt).
+    node_id : int
+        CAN node id (default the host node, ``bus.protocol.NodeId.HOST`` = 0x10); reported in
+        the status feature report. The gateway is the PC's node.
+    name : str
+        Owner name in scheduler errors.
+    rx_queue_frames : int
+        CAN→PC queue depth, frames (default :data:`RX_QUEUE_FRAMES`).
+    usb : UsbHidInterface, optional
+        The USB interface peripheral (default a new one); connect a
+        :class:`bus.usb_link.UsbHostPort` to it.
+    serial_port : None
+        Accepted for the board registry's uniform constructor call; the gateway has no RS232
+        telemetry (ValueError otherwise).
+    """
+
+    KIND = "usb-gateway"
+
+    def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int = proto.NodeId.HOST, *,
+                 name: str = "usb-gateway", rx_queue_frames: int = RX_QUEUE_FRAMES,
+                 usb: Optional[UsbHidInterface] = None, serial_port=None) -> None:
+        if serial_port is not None:
+            raise ValueError("the USB gateway has no RS232 telemetry port (serial_port must be None)")
+        if int(rx_queue_frames) < 1:
+            raise ValueError(f"rx_queue_frames must be >= 1, got {rx_queue_frames}")
+        self.scheduler = scheduler
+        self.node_id = int(node_id)
+        self.name = name
+        self.rx_queue_frames = int(rx_queue_frames)
+        self.can = CanController(bus, rx_buffers=2)
+        self.can.accept = self._accept
+        self.can.on_rx = self._on_can_rx
+        self.usb = usb if usb is not None else UsbHidInterface()
+        self.usb.on_sof = self._sof
+        self.usb.on_in_done = self._in_done
+        self.usb.on_out = self._on_out
+        self.usb.on_get_feature = self._get_feature
+        self.usb.on_set_feature = self._set_feature
+        self.reset_cause = "power_on"   # survives resets (RCON)
+        self.reset_count = 0
+        self.started = False
+        self._init_state()
+
+    # ------------------------------------------------------------------ state
+    def _init_state(self) -> None:
+        self.boot_us = self.scheduler.now_us
+        self.filters: tuple = ()
+        self._queue: Deque[tuple] = deque()
+        self._pending_flags = 0
+        self.in_seq = 0
+        self._hw_overruns_seen = 0
+        self._clear_counters()
+
+    def _clear_counters(self) -> None:
+        self.flags_seen = 0
+        self.rx_frames = 0
+        self.rx_dropped = 0
+        self.rx_unsupported = 0
+        self.tx_frames = 0
+        self.tx_errors = 0
+        self.in_reports = 0
+        self.out_reports = 0
+        self.out_malformed = 0
+        self.last_malformed = R.MalformedReason.NONE
+        self.queue_high_water = len(self._queue)
+
+    @property
+    def malformed_frames(self) -> int:
+        """Malformed OUT reports and commands (the name every board's report row uses)."""
+        return self.out_malformed
+
+    @property
+    def queue_level(self) -> int:
+        """Frames waiting in the CAN→PC queue."""
+        return len(self._queue)
+
+    # ------------------------------------------------------------------ lifecycle
+    def start(self) -> None:
+        """Power on: CAN receive interrupt (or polling at SOF), accept all, USB configured."""
+        self.started = True
+        self.boot_us = self.scheduler.now_us
+        self._program_filters()
+        self.can.enable_rx_interrupt()
+        self.usb.attach()
+        self.usb.arm_out()
+
+    def reset(self, cause: str = "power_on") -> None:
+        """Processor reset: queue, filters and counters cleared; a running gateway boots again.
+
+        Parameters
+        ----------
+        cause : {"power_on", "watchdog", "software"}
+        """
+        if cause not in RESET_CAUSES:
+            raise ValueError(f"reset cause must be one of {list(RESET_CAUSES)}, got {cause!r}")
+        was_running = self.started
+        self.can.reset()
+        self.usb.reset()
+        self.reset_cause = cause
+        self.reset_count += 1
+        self.started = False
+        self._init_state()
+        if was_running:
+            self.start()
+
+    def power_off(self) -> None:
+        """Unplug: the USB device disappears, nothing is sent or received until :meth:`start`."""
+        self.can.reset()
+        self.usb.detach()
+        self.started = False
+        self.reset_cause = "power_on"
+
+    # ------------------------------------------------------------------ CAN side
+    def _accept(self, arbitration_id: int) -> bool:
+        return R.filter_matches(self.filters, arbitration_id)
+
+    def _program_filters(self) -> None:
+        bus = self.can.bus
+        if type(bus).__name__ not in FILTER_BEFORE_QUEUE_BUSES:
+            return  # the software check in _accept filters (see CanController.set_acceptance)
+        bus.set_filters([{"can_id": f.filter_id, "can_mask": f.mask, "extended": False}
+                         for f in self.filters] or None)
+
+    def _on_can_rx(self, msg: can.Message) -> None:
+        if msg.is_remote_frame or msg.is_extended_id or msg.is_error_frame or msg.is_fd:
+            self.rx_unsupported += 1
+            return
+        if len(self._queue) >= self.rx_queue_frames:
+            self.rx_dropped += 1
+            self._raise(R.InFlags.RX_OVERFLOW)
+            return
+        now = self.scheduler.now_us
+        self._queue.append((msg.arbitration_id, bytes(msg.data), (now - self.boot_us) & _U32))
+        self.rx_frames += 1
+        if len(self._queue) > self.queue_high_water:
+            self.queue_high_water = len(self._queue)
+
+    def _raise(self, flag: int) -> None:
+        self._pending_flags |= flag
+        self.flags_seen |= flag
+
+    # ------------------------------------------------------------------ USB side
+    def _stage_in(self) -> None:
+        usb = self.usb
+        if not usb.configured or usb.in_armed or not (self._queue or self._pending_flags):
+            return
+        q = self._queue
+        frames = [q.popleft() for _ in range(min(R.FRAMES_PER_REPORT, len(q)))]
+        usb.arm_in(R.encode_report(R.KIND_IN, frames, self._pending_flags, self.in_seq))
+        self._pending_flags = 0
+        self.in_seq = (self.in_seq + 1) & 0xFF
+
+    def _sof(self, now_us: int) -> None:
+        if not self.can.interrupt_enabled:
+            self.can.poll()
+        if self.can.rx_overflows != self._hw_overruns_seen:
+            self._hw_overruns_seen = self.can.rx_overflows
+            self._raise(R.InFlags.CAN_HW_OVERRUN)
+        self._stage_in()
+
+    def _in_done(self, now_us: int) -> None:
+        self.in_reports += 1
+
+    def _malformed(self, reason: int) -> None:
+        self.out_malformed += 1
+        self.last_malformed = reason
+        self._raise(R.InFlags.OUT_MALFORMED)
+
+    def _on_out(self, report: bytes, now_us: int) -> None:
+        self.out_reports += 1
+        try:
+            rep = R.decode_report(report, R.KIND_OUT)
+        except R.ReportError as exc:
+            self._malformed(exc.reason)
+        else:
+            for f in rep.frames:
+                if self.can.send(f.arbitration_id, f.data):
+                    self.tx_frames += 1
+                else:
+                    self.tx_errors += 1
+                    self._raise(R.InFlags.CAN_TX_ERROR)
+        self.usb.arm_out()
+
+    def status(self) -> R.Status:
+        """The counters as the status feature report carries them."""
+        return R.Status(
+            flags=self.flags_seen, filters=len(self.filters), node_id=self.node_id,
+            uptime_us=(self.scheduler.now_us - self.boot_us) & _U32, rx_frames=self.rx_frames,
+            rx_dropped=self.rx_dropped, tx_frames=self.tx_frames, tx_errors=self.tx_errors,
+            in_reports=self.in_reports, out_reports=self.out_reports, out_malformed=self.out_malformed,
+            queue_depth=self.rx_queue_frames, queue_level=len(self._queue),
+            queue_high_water=self.queue_high_water, hw_overruns=self.can.rx_overflows,
+            last_malformed=int(self.last_malformed))
+
+    def _get_feature(self) -> bytes:
+        return R.encode_status(self.status())
+
+    def _set_feature(self, report: bytes) -> bool:
+        try:
+            cmd = R.decode_command(report)
+        except R.ReportError as exc:
+            self._malformed(exc.reason)
+            return False
+        if cmd.cmd == R.CMD_SET_FILTERS:
+            self.filters = cmd.filters
+            self._program_filters()
+        elif cmd.cmd == R.CMD_CLEAR_COUNTERS:
+            self._clear_counters()
+        return True

@@ -1,0 +1,131 @@
+"""The USB cable and host controller in simulated time: one 1 ms frame event that services a HID
+interface's endpoints the way a PC's USB host does (docs/usb-gateway.md).
+
+Every frame (USB 2.0 §5.7.4: full speed, 1 ms, bInterval = 1) the host sends SOF, delivers at
+most one queued OUT report (NAKed → retried next frame) and, while the device is open, polls the
+IN endpoint once. Reports it takes go to :attr:`UsbHostPort.received` (the PC driver's buffer,
+bounded like hidraw's 64-report list) or to ``on_in_report``. While that buffer is full the port
+does not poll: a PC that does not read leaves the device's IN endpoint armed, so the device's
+own queue fills (assumed model of "the PC falls behind"; a real hidraw keeps polling and drops
+the newest report in the kernel, see docs/usb-gateway.md).
+
+Control transfers (feature reports) complete at once in simulated time (their ≤ 1 ms duration
+is not modelled). Nothing here reads the wall clock; the scheduler's frame event is the only
+time source. The device is any object with the ``host_*`` methods of
+:class:`boards.usb_hid.UsbHidInterface` (bus/ does not import boards/).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Callable, Deque, Optional, Tuple
+
+from bus.scheduler import PRIO_HOST, Scheduler
+
+__all__ = ["UsbHostPort", "FRAME_PERIOD_US", "HIDRAW_BUFFER_REPORTS"]
+
+#: Full-speed frame period and interrupt-endpoint interval, µs (USB 2.0 §5.7.4).
+FRAME_PERIOD_US = 1_000
+#: Reports a reader may leave unread before the host stops polling (Linux hidraw keeps a list
+#: of 64 reports per open file, drivers/hid/hidraw.c HIDRAW_BUFFER_SIZE).
+HIDRAW_BUFFER_REPORTS = 64
+#: OUT reports a writer may queue before ``write`` fails (assumed: usbhid's output FIFO holds
+#: 256 reports; a smaller bound makes a stalled gateway visible sooner).
+OUT_QUEUE_REPORTS = 64
+
+
+class UsbHostPort:
+    """Host side of one USB HID device: the 1 ms frame event, OUT queue, IN buffer.
+
+    Parameters
+    ----------
+    scheduler : Scheduler
+        The simulation clock (the frame event runs at ``PRIO_HOST`` on whole milliseconds).
+    device : UsbHidInterface-like
+        The device's interface (``host_sof``, ``host_poll_in``, ``host_out``,
+        ``host_get_feature``, ``host_set_feature``).
+    rx_buffer_reports : int
+        Size of :attr:`received`; no polling while it is full.
+    out_queue_reports : int
+        Size of the OUT queue; :meth:`write` returns False when it is full.
+    name : str
+        Owner name in scheduler errors.
+    """
+
+    def __init__(self, scheduler: Scheduler, device, *, rx_buffer_reports: int = HIDRAW_BUFFER_REPORTS,
+                 out_queue_reports: int = OUT_QUEUE_REPORTS, name: str = "usb-host") -> None:
+        self.scheduler = scheduler
+        self.device = device
+        self.rx_buffer_reports = int(rx_buffer_reports)
+        self.out_queue_reports = int(out_queue_reports)
+        self.name = name
+        #: IN reports taken and not yet read: ``(time_us, report)``
+        self.received: Deque[Tuple[int, bytes]] = deque()
+        self._out: Deque[bytes] = deque()
+        #: called with ``(report, now_us)`` for each IN report taken, instead of buffering it
+        self.on_in_report: Optional[Callable[[bytes, int], None]] = None
+        self.opened = False
+        self.frames = 0
+        self.in_reports = 0
+        self.out_reports = 0
+        self.out_rejected = 0
+        self.polls_skipped = 0
+        start = (scheduler.now_us // FRAME_PERIOD_US + 1) * FRAME_PERIOD_US
+        self._event = scheduler.call_every(FRAME_PERIOD_US, self._frame, start_us=start,
+                                           priority=PRIO_HOST, owner=name)
+
+    def open(self) -> None:
+        """A program opened the device: the host starts polling the IN endpoint."""
+        self.opened = True
+
+    def close(self) -> None:
+        """The last reader closed the device: polling stops, unread reports are discarded."""
+        self.opened = False
+        self.received.clear()
+
+    def write(self, report: bytes) -> bool:
+        """Queue an OUT report (sent at the next frames); False if the queue is full."""
+        if len(self._out) >= self.out_queue_reports:
+            self.out_rejected += 1
+            return False
+        self._out.append(bytes(report))
+        return True
+
+    @property
+    def out_pending(self) -> int:
+        """OUT reports queued and not yet accepted by the device."""
+        return len(self._out)
+
+    def get_feature(self) -> Optional[bytes]:
+        """GET_REPORT(Feature); None if the device stalled."""
+        return self.device.host_get_feature()
+
+    def set_feature(self, report: bytes) -> bool:
+        """SET_REPORT(Feature); False if the device stalled."""
+        return self.device.host_set_feature(bytes(report))
+
+    def _frame(self, now_us: int) -> None:
+        self.frames += 1
+        dev = self.device
+        dev.host_sof(now_us)
+        if self._out and dev.host_out(self._out[0], now_us):
+            self._out.popleft()
+            self.out_reports += 1
+        if not self.opened:
+            return
+        if self.on_in_report is None and len(self.received) >= self.rx_buffer_reports:
+            self.polls_skipped += 1
+            return
+        report = dev.host_poll_in(now_us)
+        if report is None:
+            return
+        self.in_reports += 1
+        if self.on_in_report is not None:
+            self.on_in_report(report, now_us)
+        else:
+            self.received.append((now_us, report))
+
+    def shutdown(self) -> None:
+        """Unplug: the frame event stops."""
+        self.scheduler.cancel(self._event)
+        self.opened = False

@@ -1,0 +1,118 @@
+"""A python-can bus through the USB-HID CAN gateway: CAN frames in, HID reports out.
+
+:class:`HidGatewayBus` wraps any object shaped like hidapi's ``hid.device`` (``write``,
+``read(max_length, timeout_ms)``, ``error``): the in-process :class:`host.hid_device.device` on
+a simulated gateway, or the real ``hid.device`` of the PyPI ``hidapi`` package on a real (or
+``/dev/uhid``) gateway. So code written against python-can — :class:`host.client.HostClient`
+among it — talks through the gateway as the paper's PC did (docs/usb-gateway.md).
+
+* ``send`` puts the frame in an OUT report of its own (one report per frame: the gateway sends
+  it at the next 1 ms USB frame; :meth:`send_many` packs up to 4 frames per report).
+* ``recv`` returns frames from IN reports; ``timeout`` is handed to ``read`` (on the in-process
+  device a timeout advances simulated time; ``recv(0)`` never does). A message's ``timestamp``
+  is the gateway's receive time, s since gateway power-on (wraps after 71.6 min).
+* IN reports that do not decode are counted in ``malformed_reports``; gaps in the report
+  ``seq`` (reports lost between gateway and PC) in ``lost_reports``; the IN flags seen are
+  OR-ed into ``flags_seen`` (RX_OVERFLOW: the gateway dropped frames).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Deque, Iterable, Optional
+
+import can
+
+from bus import hid_reports as R
+
+__all__ = ["HidGatewayBus"]
+
+
+class HidGatewayBus(can.BusABC):
+    """python-can ``BusABC`` over a hidapi-shaped device opened on the gateway.
+
+    Parameters
+    ----------
+    device : hid.device-like
+        Already opened on the gateway.
+    channel : str
+        Name shown in ``channel_info``.
+    """
+
+    def __init__(self, device, channel: str = "usb-hid-gateway", **kwargs) -> None:
+        self.device = device
+        self.channel = channel
+        self.channel_info = f"USB-HID CAN gateway ({channel})"
+        self._rx: Deque[can.Message] = deque()
+        self._last_seq: Optional[int] = None
+        self.malformed_reports = 0
+        self.lost_reports = 0
+        self.flags_seen = 0
+        super().__init__(channel=channel, **kwargs)
+
+    # -- transmit ------------------------------------------------------------------------------
+    @staticmethod
+    def _frame(msg: can.Message) -> tuple:
+        if msg.is_extended_id or msg.is_remote_frame or msg.is_error_frame or msg.is_fd:
+            raise can.CanOperationError("the gateway carries CAN 2.0A data frames only (is_extended_id=False)")
+        if not 0 <= msg.arbitration_id <= 0x7FF or len(msg.data) > 8:
+            raise can.CanOperationError(f"bad frame for the gateway: id 0x{msg.arbitration_id:X}, "
+                                        f"{len(msg.data)} data bytes (expected ≤ 0x7FF, ≤ 8)")
+        return (msg.arbitration_id, bytes(msg.data))
+
+    def _write(self, frames: list) -> None:
+        n = self.device.write(b"\0" + R.encode_report(R.KIND_OUT, frames))
+        if n is None or n < 0:
+            raise can.CanOperationError(f"HID write failed: {self.device.error()}")
+
+    def send(self, msg: can.Message, timeout: Optional[float] = None) -> None:
+        """Send ``msg`` in an OUT report of its own. Raises ``can.CanOperationError``."""
+        self._write([self._frame(msg)])
+
+    def send_many(self, msgs: Iterable[can.Message]) -> None:
+        """Send frames packed 4 per OUT report (the gateway's limit per 1 ms frame)."""
+        frames = [self._frame(m) for m in msgs]
+        for i in range(0, len(frames), R.FRAMES_PER_REPORT):
+            self._write(frames[i:i + R.FRAMES_PER_REPORT])
+
+    # -- receive -------------------------------------------------------------------------------
+    def _take(self, report) -> None:
+        try:
+            rep = R.decode_report(bytes(report), R.KIND_IN)
+        except R.ReportError:
+            self.malformed_reports += 1
+            return
+        if self._last_seq is not None:
+            self.lost_reports += (rep.seq - self._last_seq - 1) % 256
+        self._last_seq = rep.seq
+        self.flags_seen |= rep.flags
+        for f in rep.frames:
+            self._rx.append(can.Message(timestamp=f.timestamp_us / 1e6, arbitration_id=f.arbitration_id,
+                                        is_extended_id=False, data=f.data, is_rx=True, channel=self.channel))
+
+    def _recv_internal(self, timeout: Optional[float]):
+        if not self._rx:
+            ms = -1 if timeout is None else (0 if timeout <= 0 else max(1, int(round(timeout * 1000))))
+            r = self.device.read(R.REPORT_SIZE, ms)
+            while r:
+                self._take(r)
+                r = self.device.read(R.REPORT_SIZE, 0)
+        if self._rx:
+            return self._rx.popleft(), False
+        return None, False
+
+    def recv(self, timeout: Optional[float] = None) -> Optional[can.Message]:
+        """Next frame passing the bus filters, or None. The wait happens once, inside the
+        device's ``read`` (``timeout=None`` blocks: ``read(.., -1)``; on the in-process device
+        that advances simulated time up to its limit and raises ``HostTimeout``)."""
+        msg, _ = self._recv_internal(timeout)
+        while msg is not None and not self._matches_filters(msg):
+            msg, _ = self._recv_internal(0)
+        return msg
+
+    def shutdown(self) -> None:
+        """Close the HID device."""
+        super().shutdown()
+        close = getattr(self.device, "close", None)
+        if close is not None:
+            close()
