@@ -354,11 +354,12 @@ class HostClient:
         while (self.scheduler.now_us < t0 + self.POWER_ON_US
                and any(self.sdo_answers.get(n, -1) < t0 for n in self.expected_nodes)):
             run_until(min(self.scheduler.now_us + self.POLL_US, t0 + self.POWER_ON_US))
+        # the health check's answers (before the identity reads add answers of their own)
+        answered = {NODE_NAMES[n]: self.sdo_answers[n] for n in self.expected_nodes
+                    if self.sdo_answers.get(n, -1) >= t0}
         self.read_boards([n for n in self.expected_nodes if self.sdo_answers.get(n, -1) >= t0])
         if self.scheduler.now_us < t0 + self.POWER_ON_US:
             run_until(t0 + self.POWER_ON_US)
-        answered = {NODE_NAMES[n]: self.sdo_answers[n] for n in self.expected_nodes
-                    if self.sdo_answers.get(n, -1) >= t0}
         missing = [NODE_NAMES[n] for n in self.expected_nodes if NODE_NAMES[n] not in answered]
         for name in missing:
             self._error(self.scheduler.now_us, name, "no-answer",
