@@ -34,11 +34,12 @@ import can
 from bus import protocol as proto
 from boards.control import DRIVE_LAWS, IncrementalPI
 from boards.firmware_base import (FAULT_BRAKE_CUT, FAULT_HOST_TIMEOUT, FAULT_LIMIT_STOP,
-                                  FAULT_OVERCURRENT, FAULT_OVERSPEED, FAULT_READER_LOST,
-                                  STATE_FAULT, Board)
-from boards.safety import (DEFAULT_SAFETY, REFUSE_DUTY, REFUSE_GAIN, REFUSE_RATE, REFUSE_READER,
+                                  FAULT_OVERCURRENT, FAULT_OVERSPEED, FAULT_READER_LOST, Board)
+from boards.safety import (DEFAULT_SAFETY, REFUSE_DUTY, REFUSE_GAIN, REFUSE_LIMIT, REFUSE_RATE,
+                           REFUSE_READER,
                            SafetyLimits)
 from boards.peripherals import Adc, Pwm, Qei, Timer
+from boards.services import ObjectRefused
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_ISR, Scheduler
 from bus.units import ARCSEC_PER_RAD, ARCSEC_PER_REV, Q15_FULL_SCALE, check_counter_fraction, duty_to_q15, q15_to_duty
@@ -61,7 +62,7 @@ class AxisMode:
 QEI_COUNTS_PER_REV = 4_608_000 * 245 // 10
 
 #: Slew: Table 1 gives 12.583 rad/s at the motor; / 360.489 (§2.2) = 0.034906 rad/s at the
-#: axis = 7199.8″/s ≈ 2.000°/s.
+#: axis = 7199.748″/s ≈ 2.000°/s (the SDO object 0x2001:1 reads 7199748 milli-″/s).
 SLEW_ARCSEC_S = 12.583 / 360.489 * ARCSEC_PER_RAD
 
 #: Preset axis rates, arcsec/s. ``(RA, DEC)`` per preset.
@@ -69,7 +70,7 @@ SLEW_ARCSEC_S = 12.583 / 360.489 * ARCSEC_PER_RAD
 #: ====== ============ ========= ===========================================================
 #: preset RA ″/s       DEC ″/s   source
 #: ====== ============ ========= ===========================================================
-#: SLEW   7199.8       7199.8    Table 1 (12.583 rad/s motor / 360.489 ≈ 2°/s)
+#: SLEW   7199.748     7199.748  Table 1 (12.583 rad/s motor / 360.489 ≈ 2°/s)
 #: SET    600          600       assumed: the high speed of Figs. 6, 11 ("600 arc sec/s")
 #: GUIDE  100          100       assumed: the low speed of Fig. 7 ("100 arc sec/s")
 #: FINE   30           30        assumed: between guide and tracking (not in the paper)
@@ -154,6 +155,7 @@ class AxisController(Board):
 
     DEVICE_TYPE = int(proto.DeviceType.AXIS_CONTROLLER)
     KIND = "axis"
+    CANOPEN_KIND = "axis_controller"
 
     def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int = 1, *,
                  read_qei_counts: Callable[[], int],
@@ -275,9 +277,6 @@ class AxisController(Board):
     def ki(self) -> float:
         """Integral gain, duty per (″/s) per tick."""
         return self.pi.ki
-
-    def heartbeat_state(self) -> int:
-        return STATE_FAULT if (self.tripped or self.brake_cut) else self.state
 
     def on_start(self) -> None:
         self.qei.reset()          # POSCNT cleared at boot: the present count is the zero
@@ -534,7 +533,7 @@ class AxisController(Board):
             return True
         if self._limit_active_toward(sign):
             self.limit_refusals += 1
-            self.send_fault(FAULT_LIMIT_STOP, detail=cmd)
+            self.refuse(REFUSE_LIMIT, cmd)
             return True
         return False
 
@@ -560,5 +559,39 @@ class AxisController(Board):
             self.mode = AxisMode.STOP
 
     def stop_all(self) -> None:
-        """HOST_BROADCAST STOP_ALL: controlled stop (braking ramp, supervised)."""
+        """STOP_ALL (0x190) or NMT leaving OPERATIONAL: controlled stop (braking ramp, supervised)."""
         self._brake(AxisMode.STOP)
+
+    def background(self, now_us: int) -> None:
+        """The limit-stop condition ends when the axis leaves LIMIT_STOP: EMCY error reset."""
+        if self.mode != AxisMode.LIMIT_STOP:
+            self.clear_fault(FAULT_LIMIT_STOP)
+
+    # ------------------------------------------------------------------ CANopen objects (SDO)
+    def od_read(self, index: int, subindex: int):
+        """0x2000 PI controller (Kp, Ki x 1e6, effort limit, counter fraction Q15), 0x2001 preset
+        rates (milli-arcsec/s, magnitudes for this axis); 0x2F00 from :class:`Board`."""
+        if index == 0x2000:
+            return {1: int(round(self.pi.kp * 1e6)), 2: int(round(self.pi.ki * 1e6)),
+                    3: duty_to_q15(self.pi.u_max),
+                    4: duty_to_q15(self.counter_fraction)}.get(subindex)
+        if index == 0x2001 and 1 <= subindex <= 5:
+            rate = PRESET_RATES_ARCSEC_S[subindex][min(self.axis, 1)]   # sub n = command n
+            return int(round(abs(rate) * 1000.0))
+        return super().od_read(index, subindex)
+
+    def od_write(self, index: int, subindex: int, value) -> None:
+        """Kp, Ki (as SET_KP/SET_KI: bumpless, volatile), effort limit, counter fraction."""
+        if index == 0x2000 and subindex == 1:
+            self.pi.kp = value * 1e-6
+        elif index == 0x2000 and subindex == 2:
+            self.pi.ki = value * 1e-6
+        elif index == 0x2000 and subindex == 3:
+            self.pi.u_max = self.u_max = q15_to_duty(value)
+        elif index == 0x2000 and subindex == 4:
+            try:
+                self.counter_fraction = check_counter_fraction(q15_to_duty(value))
+            except ValueError as exc:
+                raise ObjectRefused(reason=str(exc)) from None
+        else:
+            super().od_write(index, subindex, value)

@@ -20,17 +20,27 @@ calls :meth:`Board.telemetry_sample` every 10 ms from an ISR or loop it already 
 timer), and every 25th sample the background loop encodes one packet and writes it — one write
 per 250 ms, no per-sample or per-byte events. Without a port nothing is sampled.
 
+CANopen (CiA 301, docs/canopen.md): every board owns a
+:class:`boards.services.CanopenDevice` (object dictionary from its EDS, SDO server, NMT slave,
+heartbeat producer at 0x1017, heartbeat consumer 0x1016, EMCY). The receive interrupt feeds the
+device first (NMT, SDO, consumed heartbeats); process data (commands, LIMIT, STOP_ALL) is acted
+on only in NMT OPERATIONAL, and the periodic frames go out through the device's PDO gate (a
+node that is not OPERATIONAL sends none). The firmware keeps running its ISRs in every NMT state:
+NMT gates communication, not control. ``send_fault`` sends an EMCY; a *condition* (over-current,
+CRC, limit stop...) is cleared with :meth:`Board.clear_fault` (EMCY error reset).
+
 Robustness contract (architecture.md, STYLE.md §8): a frame that cannot be decoded (wrong DLC,
 wrong device-type byte, unknown command or enum, remote or extended frame on an accepted id) is
-counted in ``malformed_frames`` and answered with a ``FAULT`` frame (error code 1, detail = the
-frame's identifier) — at most a burst of 4, then 10 per second (a flood of bad frames must not
-fill the board's own transmit queue); the board never raises into the bus for it. Any *other* exception is a bug
-in the emulator and propagates (the scheduler stops the run and names the board).
+counted in ``malformed_frames`` and answered with an EMCY MALFORMED_FRAME (detail = the frame's
+identifier) — at most a burst of 4, then 10 per second (a flood of bad frames must not fill the
+board's own transmit queue); the board never raises into the bus for it. Any *other* exception is a bug in the
+emulator and propagates (the scheduler stops the run and names the board).
 
 Reset semantics: :meth:`Board.reset` is a processor reset. RAM state, counters (malformed
 frames, CRC errors, CAN overflow) and outputs return to power-on values; ``reset_cause`` and
 ``reset_count`` survive (they model the RCON register and a persistent boot counter). If the
-board was running, it boots again (schedules its ISRs, sends a BOOT heartbeat).
+board was running, it boots again (schedules its ISRs, sends the CANopen boot-up message and
+enters PRE-OPERATIONAL). An NMT reset node is ``reset("software")``.
 """
 
 from __future__ import annotations
@@ -42,6 +52,8 @@ import can
 from bus import protocol as proto
 from bus import telemetry as tlm
 from boards.peripherals import CanController, Timer, Uart
+from boards.services import Application, CanopenDevice, ObjectRefused
+from bus.eds.objects import EMCY_OF_FAULT
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_BACKGROUND, Scheduler
 
@@ -72,11 +84,11 @@ MALFORMED_FAULT_RATE_HZ = 10
 #: (assumed: 1 s, see boards/safety.py ``fault_clear_hold_us``).
 FAULT_CLEAR_HOLD_US = 1_000_000
 
-BROADCAST_PING, BROADCAST_RESET, BROADCAST_STOP_ALL = 1, 2, 3
-HEARTBEAT_PERIOD_US = 1_000_000
+#: NMT states (canopen's names) in which the firmware's motion commands are honoured.
+_OPERATIONAL = "OPERATIONAL"
 
 
-class Board:
+class Board(Application):
     """Base class of the board firmwares.
 
     Parameters
@@ -103,6 +115,8 @@ class Board:
 
     DEVICE_TYPE = 0x00
     KIND = "board"
+    #: EDS of this board kind (a key of ``bus.eds.objects.KINDS``)
+    CANOPEN_KIND = ""
 
     def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int, *,
                  name: Optional[str] = None, background_period_us: int = 5_000,
@@ -117,12 +131,19 @@ class Board:
         self.can.accept = self._accept
         self.can.on_rx = self._on_rx
         self.background_period_us = int(background_period_us)
-        self._heartbeat_timer = Timer(scheduler, HEARTBEAT_PERIOD_US, self._heartbeat_isr,
-                                      priority=PRIO_BACKGROUND, owner=f"{self.name}/heartbeat")
         self._background_timer = Timer(scheduler, self.background_period_us, self._background,
                                        priority=PRIO_BACKGROUND, owner=f"{self.name}/background")
-        self._timers: List[Timer] = [self._heartbeat_timer, self._background_timer]
-        self._accepted_ids = {proto.host_broadcast_cob_id()}
+        self._timers: List[Timer] = [self._background_timer]
+        #: the CANopen services (docs/canopen.md); frames leave through the CAN controller
+        self.device = CanopenDevice(scheduler, self.CANOPEN_KIND, self.node_id, self.can.send,
+                                    self, name=self.name)
+        # NMT, SDO, the RPDOs (commands, LIMIT, STOP_ALL) and every node's heartbeat (the
+        # consumer times in 0x1016 may be changed by SDO; the device ignores the others)
+        self._accepted_ids = set(self.device.accepted_ids) | {
+            proto.heartbeat_cob_id(n) for n in proto.ALL_NODES if n != self.node_id}
+        self._firmware_ids: set = set()
+        self._stop_all_id = proto.stop_all_cob_id()
+        self._tpdo_ids = frozenset(self.device.tpdo_ids)
         self.uart: Optional[Uart] = Uart(serial_port) if serial_port is not None else None
         #: True when the firmware samples telemetry (a port is wired)
         self.telemetry_enabled = self.uart is not None
@@ -167,12 +188,14 @@ class Board:
         return timer
 
     def accept_id(self, arbitration_id: int) -> None:
-        """Add an identifier to the CAN acceptance filter."""
+        """Add an identifier the firmware handles to the CAN acceptance filter."""
         self._accepted_ids.add(arbitration_id)
+        self._firmware_ids.add(arbitration_id)
 
     # ------------------------------------------------------------------ lifecycle
     def start(self) -> None:
-        """Boot: enable the receive interrupt (or polling), start the ISRs, send a BOOT heartbeat."""
+        """Boot: enable the receive interrupt (or polling), start the ISRs, CANopen boot-up
+        (boot-up message, PRE-OPERATIONAL, heartbeat at the 0x1017 period)."""
         self.started = True
         self.boot_us = self.scheduler.now_us
         self.can.set_acceptance(self._accepted_ids)
@@ -180,7 +203,7 @@ class Board:
         t0 = self.scheduler.now_us
         for timer in self._timers:
             timer.start(t0)
-        self.send_heartbeat()
+        self.device.boot()
         self.state = STATE_OPERATIONAL
         if self.reset_cause == "watchdog":
             self.send_fault(FAULT_WATCHDOG, detail=self.reset_count)
@@ -206,6 +229,7 @@ class Board:
             raise ValueError(f"reset cause must be one of {sorted(RESET_CAUSES)}, got {cause!r}")
         was_running = self.started
         self._hardware_reset()
+        self.device.emcy.reset()             # active errors and the 0x1003 history are volatile
         self.reset_cause = cause
         self.reset_count += 1
         self.started = False
@@ -215,6 +239,7 @@ class Board:
 
     def _hardware_reset(self) -> None:
         """Timers, CAN controller and peripherals to their reset state (reset and power-off)."""
+        self.device.power_off()
         for timer in self._timers:
             timer.reset()
         self.can.reset()
@@ -237,10 +262,21 @@ class Board:
             if msg.is_remote_frame or msg.is_extended_id or msg.is_error_frame:
                 raise MalformedFrame(f"id 0x{msg.arbitration_id:03X}", "frame type",
                                      "standard data frame")
-            if msg.arbitration_id == proto.host_broadcast_cob_id():
-                self._handle_broadcast(proto.decode_host_broadcast(msg.data))
+            cob = msg.arbitration_id
+            if self.device.receive(cob, bytes(msg.data)):
+                return                                  # NMT, SDO, a consumed heartbeat
+            if proto.FC_HEARTBEAT < cob <= proto.FC_HEARTBEAT + 0x7F:
+                if cob in self._firmware_ids:           # e.g. the axis's host watchdog (0x710)
+                    self.handle_frame(cob, bytes(msg.data))
+                return                                  # heartbeats count in every NMT state
+            if not self.device.accept_rpdo(cob):
+                return                                  # process data outside OPERATIONAL
+            if cob == self._stop_all_id:
+                b = proto.decode_stop_all(msg.data)
+                if b.target_node in (0, self.node_id):
+                    self.stop_all()
             else:
-                self.handle_frame(msg.arbitration_id, bytes(msg.data))
+                self.handle_frame(cob, bytes(msg.data))
         except MalformedFrame:
             self.malformed_frames += 1
             now = self.scheduler.now_us
@@ -258,22 +294,16 @@ class Board:
         """Decode and apply an accepted frame; raise ``MalformedFrame`` if it does not decode."""
         raise MalformedFrame(f"id 0x{arbitration_id:03X}", "identifier", "a frame this board handles")
 
-    def _handle_broadcast(self, b) -> None:
-        if b.target_node not in (0, self.node_id):
-            return
-        if b.cmd == BROADCAST_PING:
-            self.send_heartbeat()
-        elif b.cmd == BROADCAST_RESET:
-            self.reset(_CAUSE_NAMES[b.reset_cause])
-        elif b.cmd == BROADCAST_STOP_ALL:
-            self.stop_all()
-
     def stop_all(self) -> None:
-        """HOST_BROADCAST STOP_ALL (subclasses stop their actuators)."""
+        """STOP_ALL (0x190), or NMT leaving OPERATIONAL (subclasses stop their actuators)."""
 
     def send(self, arbitration_id: int, data: bytes) -> None:
-        """Transmit now (used from the background loop and the receive handler)."""
-        self.can.send(arbitration_id, data)
+        """Transmit now (used from the background loop and the receive handler). A TPDO of this
+        node goes through the CANopen PDO gate: dropped (counted) unless NMT OPERATIONAL."""
+        if arbitration_id in self._tpdo_ids:
+            self.device.transmit_pdo(arbitration_id, data)
+        else:
+            self.can.send(arbitration_id, data)
 
     def queue(self, arbitration_id: int, data: bytes) -> None:
         """Queue a frame for the background loop (what an ISR does instead of SPI transfers)."""
@@ -333,21 +363,6 @@ class Board:
         """Whole seconds since the last boot."""
         return (self.scheduler.now_us - self.boot_us) // 1_000_000
 
-    def heartbeat_state(self) -> int:
-        """State byte of the heartbeat (subclasses may report FAULT/STOPPED)."""
-        return self.state
-
-    def send_heartbeat(self) -> None:
-        """Send HEARTBEAT now."""
-        self.send(proto.heartbeat_cob_id(self.node_id),
-                  proto.encode_heartbeat(self.DEVICE_TYPE, self.heartbeat_state(),
-                                        RESET_CAUSES[self.reset_cause],
-                                        min(self.malformed_frames, 0xFFFF),
-                                        min(self.uptime_s, 0xFFFF)))
-
-    def _heartbeat_isr(self, now_us: int) -> None:
-        self.send_heartbeat()
-
     def crc_error_count(self) -> int:
         """CRC errors reported in FAULT frames (position readers override)."""
         return 0
@@ -372,8 +387,10 @@ class Board:
         self.active_faults[code] = now_us
 
     def clear_fault(self, code: int) -> None:
-        """The condition ``code`` is known to be gone now: report FAULT_CLEARED at once."""
-        if self.active_faults.pop(code, None) is not None:
+        """The condition ``code`` is known to be gone now: report FAULT_CLEARED (the EMCY error
+        reset) at once; no-op if it is not active (neither here nor as an EMCY condition)."""
+        held = self.active_faults.pop(code, None) is not None
+        if held or self.device.emcy.is_active(EMCY_OF_FAULT[code]):
             self.send_fault(FAULT_CLEARED, detail=code)
 
     def _expire_faults(self, now_us: int) -> None:
@@ -391,8 +408,37 @@ class Board:
         self.send_fault(FAULT_REFUSED, detail=((reason & 0xFF) << 8) | (cmd & 0xFF))
 
     def send_fault(self, code: int, detail: int = 0) -> None:
-        """Send a FAULT frame with the board's counters."""
+        """Report fault ``code`` (``bus.protocol.FaultCode``) as a CANopen EMCY.
+
+        An *event* (malformed frame, refused command, step loss, watchdog reset) sends one EMCY;
+        a *condition* (CRC error, over-current, limit stop...) sends one EMCY when it becomes
+        active and nothing more until :meth:`clear_fault` (``bus.eds.objects.EMCY_CODES``).
+        ``FAULT_CLEARED`` with ``detail`` = a code sends the error reset of that condition
+        (:meth:`clear_fault` and the hold expiry of :meth:`fault_condition` call it).
+        """
+        if code == FAULT_CLEARED:                 # the EMCY error reset of condition ``detail``
+            self.device.emcy.clear(EMCY_OF_FAULT[detail])
+            return
         self.faults_sent += 1
-        self.send(proto.fault_cob_id(self.node_id),
-                  proto.encode_fault(self.DEVICE_TYPE, code, min(self.malformed_frames, 0xFFFF),
-                                    min(self.crc_error_count(), 0xFFFF), detail & 0xFFFF))
+        self.device.emcy.report(EMCY_OF_FAULT[code], detail & 0xFFFF)
+
+    # ------------------------------------------------------------------ CANopen application
+    def od_read(self, index: int, subindex: int):
+        """SDO read of a manufacturer object (0x2F00 diagnostics here; subclasses add theirs)."""
+        if index == 0x2F00:
+            return {1: min(self.malformed_frames, 0xFFFF), 2: min(self.reset_count, 0xFFFF),
+                    3: RESET_CAUSES[self.reset_cause], 4: self.uptime_s}.get(subindex)
+        return None
+
+    def od_write(self, index: int, subindex: int, value) -> None:
+        """SDO write of a manufacturer object (already range-checked against the EDS)."""
+        raise ObjectRefused(reason=f"0x{index:04X}:{subindex} is read-only in the {self.KIND} firmware")
+
+    def nmt_changed(self, old: str, new: str) -> None:
+        """Leaving OPERATIONAL: the board can no longer receive commands, so it stops."""
+        if old == _OPERATIONAL:
+            self.stop_all()
+
+    def reset_application(self) -> None:
+        """NMT reset node: a processor reset with cause SOFTWARE (it boots the services again)."""
+        self.reset("software")

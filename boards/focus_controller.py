@@ -109,6 +109,7 @@ class FocusController(Board):
 
     DEVICE_TYPE = int(proto.DeviceType.FOCUS_CONTROLLER)
     KIND = "focus"
+    CANOPEN_KIND = "focus_controller"
 
     def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int = 5, *,
                  on_step: Callable[[int], None], read_lvdt_v: Callable[[], float] = lambda: 0.0,
@@ -295,3 +296,23 @@ class FocusController(Board):
     def stop_all(self) -> None:
         """STOP_ALL: stop stepping (motor stays energised)."""
         self.target_halfsteps = self.pos_halfsteps
+
+    # ------------------------------------------------------------------ CANopen objects (SDO)
+    def od_read(self, index: int, subindex: int):
+        """0x2200 travel and step rate; 0x2201 the LVDT reference once an operator stored one."""
+        if index == 0x2200:
+            return {1: self.travel_halfsteps,
+                    2: int(round(1e6 / self.step_period_us))}.get(subindex)
+        if index == 0x2201:
+            return getattr(self, "lvdt_reference_adc", None)   # none stored: SDO abort "no data"
+        return super().od_read(index, subindex)
+
+    def od_write(self, index: int, subindex: int, value) -> None:
+        """Travel (targets clamped to it from the next command) and the LVDT reference
+        (stored for the operator, not used by the firmware: docs/boards.md)."""
+        if index == 0x2200 and subindex == 1:
+            self.travel_halfsteps = int(value)
+        elif index == 0x2201:
+            self.lvdt_reference_adc = int(value)
+        else:
+            super().od_write(index, subindex, value)

@@ -40,6 +40,8 @@ from bus import protocol as proto
 from boards.endat import POSITION_BITS, EnDatMaster
 from boards.firmware_base import FAULT_CRC, Board
 from boards.peripherals import Timer
+from boards.services import ObjectRefused
+from boards.services.application import ABORT_MAX_LESS_THAN_MIN
 from boards.safety import DEFAULT_SAFETY, SafetyLimits
 from bus.scheduler import PRIO_ISR, Scheduler
 from bus.units import ARCSEC_PER_REV
@@ -90,6 +92,7 @@ class PositionReader(Board):
 
     DEVICE_TYPE = int(proto.DeviceType.POSITION_READER)
     KIND = "reader"
+    CANOPEN_KIND = "position_reader"
 
     def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int = 3, *,
                  read_position_word: Callable[[], int], axis: Optional[int] = None,
@@ -205,7 +208,7 @@ class PositionReader(Board):
                 self._update_limits()
         elif self._crc_fault_us is None or now_us - self._crc_fault_us >= CRC_FAULT_MIN_INTERVAL_US:
             self._crc_fault_us = now_us
-            self.queue(proto.fault_cob_id(self.node_id), None)
+            self.queue(proto.emcy_cob_id(self.node_id), None)
         pflags = self.position_flags()
         self.queue(proto.position_cob_id(self.node_id),
                    proto.encode_position(pflags, min(self.crc_errors, 0xFFFF), self.pos_counts))
@@ -250,4 +253,32 @@ class PositionReader(Board):
             else:
                 queue.append((cob, data))
         self._tx_queue = queue
+        if not self.last_crc_error:
+            self.clear_fault(FAULT_CRC)        # EMCY error reset after a good read
         super()._background(now_us)
+
+    # ------------------------------------------------------------------ CANopen objects (SDO)
+    def od_read(self, index: int, subindex: int):
+        """0x2100 soft limits (signed counts), 0x2101 encoder offset, 0x2102 CRC errors."""
+        if index == 0x2100 and subindex in (1, 2):
+            deg = self.low_limit_deg if subindex == 1 else self.high_limit_deg
+            return int(round(deg * 3600.0 / ARCSEC_PER_COUNT))
+        if index == 0x2101:
+            return self.offset_counts
+        if index == 0x2102:
+            return self.endat.crc_errors
+        return super().od_read(index, subindex)
+
+    def od_write(self, index: int, subindex: int, value) -> None:
+        """Soft limits (low must stay below high) and the alignment offset."""
+        if index == 0x2100 and subindex in (1, 2):
+            deg = value * ARCSEC_PER_COUNT / 3600.0
+            lo = deg if subindex == 1 else self.low_limit_deg
+            hi = deg if subindex == 2 else self.high_limit_deg
+            if not lo < hi:
+                raise ObjectRefused(ABORT_MAX_LESS_THAN_MIN, "low soft limit must be below high")
+            self.low_limit_deg, self.high_limit_deg = lo, hi
+        elif index == 0x2101:
+            self.set_offset_counts(value)
+        else:
+            super().od_write(index, subindex, value)

@@ -25,6 +25,7 @@ from boards.firmware_base import Board
 from boards.focus_controller import FocusController
 from boards.position_reader import PositionReader
 from bus import protocol as P
+from bus.eds.objects import KINDS as EDS_KINDS
 
 __all__ = ["BoardInstance", "BoardSpec", "REGISTRY", "BOARDS", "BOARD_NAMES", "NODE_NAMES",
            "board", "board_of_node", "nodes_of_kind"]
@@ -79,17 +80,26 @@ class BoardSpec:
     description: str = ""
 
     def sends(self, node_id: int) -> list[tuple[int, str]]:
-        """``(cob_id, frame name)`` of every frame the board with ``node_id`` sends."""
+        """``(cob_id, frame name)`` of every frame the board with ``node_id`` sends: its
+        protocol frames (TPDOs, EMCY, heartbeat) and its SDO responses."""
         return [(cob, name) for cob, (name, spec, n) in sorted(P.COB_TABLE.items())
                 if n == node_id and spec.sender != "host"]
 
     def accepts(self, node_id: int) -> list[tuple[int, str]]:
-        """``(cob_id, frame name)`` of every frame a host sends to the board with ``node_id``
-        (the broadcast included)."""
-        bcast = P.host_broadcast_cob_id()
-        return [(bcast, P.frame_name(bcast))] + [
-            (cob, name) for cob, (name, spec, n) in sorted(P.COB_TABLE.items())
-            if n == node_id and spec.sender == "host"]
+        """``(cob_id, frame name)`` of every frame the board with ``node_id`` acts on, from its
+        EDS (``bus/eds``): NMT, the consumed heartbeats (0x1016 defaults: the host's), its
+        RPDOs (STOP_ALL, LIMIT, then its own command frame, last) and SDO requests (before the
+        command), from the EDS of ``firmware.CANOPEN_KIND``. The board's firmware builds the
+        same set from its ``CanopenDevice``."""
+        eds = EDS_KINDS[self.firmware.CANOPEN_KIND]
+        out = [(P.nmt_cob_id(), P.frame_name(P.nmt_cob_id()))]
+        out += [(P.heartbeat_cob_id(P.NodeId.HOST), P.frame_name(P.heartbeat_cob_id(P.NodeId.HOST)))]
+        rpdos = sorted(p.cob_id_for(node_id) for p in eds.rpdos)
+        own = [c for c in rpdos if P.node_of(c) == node_id]
+        out += [(c, P.frame_name(c)) for c in rpdos if c not in own]
+        out += [(P.sdo_request_cob_id(node_id), P.frame_name(P.sdo_request_cob_id(node_id)))]
+        out += [(c, P.frame_name(c)) for c in own]
+        return out
 
 
 #: The board kinds of the ARIES Schmidt network (paper §3.3–§3.4; node ids docs/protocol.md).

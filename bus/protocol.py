@@ -103,13 +103,16 @@ NODE_NAME: dict[int, str] = {
     NodeId.DEC_READER: "DEC_READER", NodeId.FOCUS: "FOCUS", NodeId.HOST: "HOST",
 }
 
-FC_HOST_BROADCAST = 0x000
-FC_LIMIT = 0x070
-FC_FAULT = 0x080
+FC_NMT = 0x000          #: CANopen NMT (CiA 301), host → all
+FC_EMCY = 0x080         #: CANopen EMCY (replaces today's FAULT)
+FC_LIMIT = 0x280        #: reader TPDO2 (was 0x070 + node: 0x001-0x07F is restricted in CiA 301)
+FC_STOP_ALL = 0x190     #: host TPDO1: 0x180 + host node 0x10 (was HOST_BROADCAST 0x000 cmd 3)
+FC_SDO_TX = 0x580       #: SDO server → client (answers)
+FC_SDO_RX = 0x600       #: SDO client → server (requests)
 FC_STATUS = 0x180       #: AXIS_STATUS (axes), POSITION (readers), FOCUS_STATUS (focus)
 FC_COMMAND = 0x200      #: AXIS_COMMAND (to axes), FOCUS_COMMAND (to focus)
 FC_AUX = 0x280
-FC_HEARTBEAT = 0x700
+FC_HEARTBEAT = 0x700    #: CiA 301 heartbeat / boot-up, 1 byte NMT state
 
 #: Nominal periods, µs (event-driven frames are absent).
 AXIS_STATUS_PERIOD_US = 10_000
@@ -126,15 +129,24 @@ LIMIT_REPEAT_US = 100_000
 
 
 class BroadcastCommand(IntEnum):
-    """``HOST_BROADCAST`` byte 1."""
+    """``STOP_ALL`` byte 1 (the one command left of HOST_BROADCAST; PING is an SDO upload, RESET
+    an NMT reset node, docs/canopen.md)."""
 
-    PING = 1
-    RESET = 2
     STOP_ALL = 3
 
 
+class NmtCommand(IntEnum):
+    """NMT byte 0: command specifier (CiA 301 §7.2.8.3.1)."""
+
+    START = 0x01
+    STOP = 0x02
+    PRE_OPERATIONAL = 0x80
+    RESET_NODE = 0x81
+    RESET_COMMUNICATION = 0x82
+
+
 class ResetCause(IntEnum):
-    """Reset cause (``HEARTBEAT`` byte 2, ``HOST_BROADCAST`` byte 3)."""
+    """Reset cause (object 0x2F00:3 of every board)."""
 
     POWER_ON = 0
     WATCHDOG = 1
@@ -149,8 +161,10 @@ class Axis(IntEnum):
 
 
 class FaultCode(IntEnum):
-    """``FAULT`` byte 1."""
+    """The project's fault code: ``EMCY`` byte 3 (was ``FAULT`` byte 1). 0 = a CANopen error with no
+    project code (heartbeat lost); 7-12 from issue 11 (FAULT_CLEARED = the EMCY error reset)."""
 
+    NONE = 0
     MALFORMED_FRAME = 1
     ENDAT_CRC = 2
     OVER_CURRENT = 3
@@ -205,12 +219,12 @@ class FocusCommand(IntEnum):
 
 
 class NodeState(IntEnum):
-    """``HEARTBEAT`` byte 1."""
+    """``HEARTBEAT`` byte 0: the NMT state (CiA 301 §7.2.8.3.2)."""
 
-    BOOT = 0
-    OPERATIONAL = 1
-    FAULT = 2
-    STOPPED = 3
+    BOOT = 0                  #: boot-up message
+    STOPPED = 4
+    OPERATIONAL = 5
+    PRE_OPERATIONAL = 127
 
 
 class LimitFlags(IntFlag):
@@ -266,19 +280,34 @@ def _check_node(kind: str, node: int, allowed: tuple) -> int:
     return int(node)
 
 
-def host_broadcast_cob_id() -> int:
-    """COB-ID of ``HOST_BROADCAST`` (0x000, highest priority)."""
-    return FC_HOST_BROADCAST
+def nmt_cob_id() -> int:
+    """COB-ID of CANopen ``NMT`` (0x000, highest priority; host → all)."""
+    return FC_NMT
+
+
+def stop_all_cob_id() -> int:
+    """COB-ID of ``STOP_ALL`` (0x190: the host's TPDO1, consumed by every board with motion)."""
+    return FC_STOP_ALL
 
 
 def limit_cob_id(node: int) -> int:
-    """COB-ID of ``LIMIT`` sent by reader ``node`` (3 or 4): 0x070 + node."""
+    """COB-ID of ``LIMIT`` sent by reader ``node`` (3 or 4): 0x280 + node (its TPDO2)."""
     return FC_LIMIT + _check_node("LIMIT", node, READER_NODES)
 
 
-def fault_cob_id(node: int) -> int:
-    """COB-ID of ``FAULT`` sent by board ``node`` (1..5): 0x080 + node."""
-    return FC_FAULT + _check_node("FAULT", node, BOARD_NODES)
+def emcy_cob_id(node: int) -> int:
+    """COB-ID of ``EMCY`` sent by board ``node`` (1..5): 0x080 + node."""
+    return FC_EMCY + _check_node("EMCY", node, BOARD_NODES)
+
+
+def sdo_request_cob_id(node: int) -> int:
+    """COB-ID of an SDO request (client → server) to ``node``: 0x600 + node."""
+    return FC_SDO_RX + _check_node("SDO", node, BOARD_NODES)
+
+
+def sdo_response_cob_id(node: int) -> int:
+    """COB-ID of an SDO response (server → client) from ``node``: 0x580 + node."""
+    return FC_SDO_TX + _check_node("SDO", node, BOARD_NODES)
 
 
 def axis_status_cob_id(node: int) -> int:
@@ -312,7 +341,7 @@ def focus_command_cob_id(node: int = NodeId.FOCUS) -> int:
 
 
 def heartbeat_cob_id(node: int) -> int:
-    """COB-ID of ``HEARTBEAT`` sent by ``node`` (1..5 or the host 0x10): 0x700 + node."""
+    """COB-ID of the CiA ``HEARTBEAT`` of ``node`` (1..5 or the host 0x10): 0x700 + node."""
     return FC_HEARTBEAT + _check_node("HEARTBEAT", node, ALL_NODES)
 
 
@@ -321,10 +350,14 @@ def heartbeat_cob_id(node: int) -> int:
 # ------------------------------------------------------------------------------------------------
 
 
-class HostBroadcast(NamedTuple):
+class Nmt(NamedTuple):
+    cmd: NmtCommand
+    target_node: int        #: 0 = all nodes
+
+
+class StopAll(NamedTuple):
     cmd: BroadcastCommand
     target_node: int        #: 0 = all nodes
-    reset_cause: ResetCause
 
 
 class Limit(NamedTuple):
@@ -333,12 +366,12 @@ class Limit(NamedTuple):
     pos_counts: int         #: 0 .. 2**29-1
 
 
-class Fault(NamedTuple):
-    device_type: DeviceType
-    code: FaultCode
-    malformed_frames: int
-    crc_errors: int
-    detail: int
+class Emcy(NamedTuple):
+    error_code: int         #: CiA 301 error code (0x0000 = error reset), bus.eds.objects.EMCY_CODES
+    error_register: int     #: object 0x1001
+    fault_code: FaultCode   #: the project's fault code (error reset: of the cleared error)
+    detail: int             #: code-specific (error reset: the cleared error code)
+    count: int              #: occurrences of this error since reset (saturating)
 
 
 class AxisStatus(NamedTuple):
@@ -379,12 +412,15 @@ class FocusCommandFrame(NamedTuple):
     value: int              #: half-steps
 
 
+class Sdo(NamedTuple):
+    command: int            #: CiA 301 SDO command specifier byte
+    index: int              #: object index (initiate frames; segments carry data here)
+    subindex: int
+    data: int               #: u32 little-endian (expedited data / size / abort code)
+
+
 class Heartbeat(NamedTuple):
-    device_type: DeviceType
-    state: NodeState
-    reset_cause: ResetCause
-    malformed_frames: int
-    uptime_s: int           #: wraps at 65536 s
+    state: NodeState        #: NMT state (0 = boot-up message)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -406,6 +442,7 @@ def _table(enum_cls) -> tuple:
 
 
 _BCAST = _table(BroadcastCommand)
+_NMT = _table(NmtCommand)
 _CAUSE = _table(ResetCause)
 _AXIS = _table(Axis)
 _FAULT = _table(FaultCode)
@@ -459,29 +496,49 @@ def _clamp(v: int, lo: int, hi: int) -> int:
 
 I32_MIN, I32_MAX = -(1 << 31), (1 << 31) - 1
 
-# -- HOST_BROADCAST -------------------------------------------------------------------------------
-_S_BCAST = struct.Struct("<BBBB4x")
+# -- NMT ------------------------------------------------------------------------------------------
+_S_NMT = struct.Struct("<BB")
 
 
-def encode_host_broadcast(cmd: int, target_node: int = 0, reset_cause: int = ResetCause.SOFTWARE) -> bytes:
-    """Encode ``HOST_BROADCAST`` (0x000): cmd, target node (0 = all), reset cause."""
-    f = "HOST_BROADCAST"
+def encode_nmt(cmd: int, target_node: int = 0) -> bytes:
+    """Encode CANopen ``NMT`` (0x000, DLC 2): command specifier, target node (0 = all)."""
+    f = "NMT"
+    _enum_or_raise(_NMT, cmd, f, "cmd", EncodeError)
+    if not 0 <= target_node <= 127:
+        raise EncodeError(f, "target_node", "0..127 (0 = all)", target_node)
+    return _S_NMT.pack(cmd, target_node)
+
+
+def decode_nmt(data) -> Nmt:
+    """Decode ``NMT``; raises MalformedFrame."""
+    if len(data) != 2:
+        raise MalformedFrame("NMT", "dlc", "2", len(data))
+    cmd, target = _S_NMT.unpack(data)
+    if target > 127:
+        raise MalformedFrame("NMT", "target_node", "0..127", target)
+    return Nmt(_enum_or_raise(_NMT, cmd, "NMT", "cmd", MalformedFrame), target)
+
+
+# -- STOP_ALL -------------------------------------------------------------------------------------
+_S_STOP_ALL = struct.Struct("<BBB5x")
+
+
+def encode_stop_all(cmd: int = BroadcastCommand.STOP_ALL, target_node: int = 0) -> bytes:
+    """Encode ``STOP_ALL`` (0x190, host TPDO1): bytes ``10 03 nn 00..``, target node (0 = all)."""
+    f = "STOP_ALL"
     _enum_or_raise(_BCAST, cmd, f, "cmd", EncodeError)
-    _enum_or_raise(_CAUSE, reset_cause, f, "reset_cause", EncodeError)
     if not 0 <= target_node <= 255:
         raise EncodeError(f, "target_node", "0..255 (0 = all)", target_node)
     try:
-        return _S_BCAST.pack(_DT_HOST, cmd, target_node, reset_cause)
+        return _S_STOP_ALL.pack(_DT_HOST, cmd, target_node)
     except (struct.error, TypeError) as exc:
         raise _not_int(f, exc) from None
 
 
-def decode_host_broadcast(data) -> HostBroadcast:
-    """Decode ``HOST_BROADCAST``; raises MalformedFrame."""
-    dt, cmd, target, cause = _unpack(_S_BCAST, data, "HOST_BROADCAST", _DT_HOST)
-    return HostBroadcast(_enum_or_raise(_BCAST, cmd, "HOST_BROADCAST", "cmd", MalformedFrame),
-                         target,
-                         _enum_or_raise(_CAUSE, cause, "HOST_BROADCAST", "reset_cause", MalformedFrame))
+def decode_stop_all(data) -> StopAll:
+    """Decode ``STOP_ALL``; raises MalformedFrame."""
+    dt, cmd, target = _unpack(_S_STOP_ALL, data, "STOP_ALL", _DT_HOST)
+    return StopAll(_enum_or_raise(_BCAST, cmd, "STOP_ALL", "cmd", MalformedFrame), target)
 
 
 # -- LIMIT ----------------------------------------------------------------------------------------
@@ -508,32 +565,32 @@ def decode_limit(data) -> Limit:
     return Limit(_enum_or_raise(_AXIS, axis, "LIMIT", "axis", MalformedFrame), flags, pos)
 
 
-# -- FAULT ----------------------------------------------------------------------------------------
-_S_FAULT = struct.Struct("<BBHHH")
+# -- EMCY -----------------------------------------------------------------------------------------
+_S_EMCY = struct.Struct("<HBBHH")
 
 
-def encode_fault(device_type: int, code: int, malformed_frames: int = 0, crc_errors: int = 0,
-                 detail: int = 0) -> bytes:
-    """Encode ``FAULT`` (0x080 + node): sender's device type, FaultCode, u16 counters (saturate)."""
-    f = "FAULT"
-    if device_type not in _DT_BY_VALUE or device_type == _DT_HOST:
-        raise EncodeError(f, "device_type", "a board DeviceType (1, 2, 3)", device_type)
-    _enum_or_raise(_FAULT, code, f, "code", EncodeError)
+def encode_emcy(error_code: int, error_register: int, fault_code: int, detail: int = 0,
+                count: int = 0) -> bytes:
+    """Encode ``EMCY`` (0x080 + node, CiA 301 §7.2.7): error code u16, error register u8, then the
+    manufacturer bytes: project FaultCode u8, detail u16, count u16 (both saturate)."""
+    f = "EMCY"
+    _enum_or_raise(_FAULT, fault_code, f, "fault_code", EncodeError)
     try:
-        return _S_FAULT.pack(device_type, code, _clamp(malformed_frames, 0, 0xFFFF),
-                             _clamp(crc_errors, 0, 0xFFFF), _clamp(detail, 0, 0xFFFF))
+        if not 0 <= error_code <= 0xFFFF:
+            raise EncodeError(f, "error_code", "0..0xFFFF", error_code)
+        _flags(f, "error_register", error_register, 0xFF)
+        return _S_EMCY.pack(error_code, error_register, fault_code, _clamp(detail, 0, 0xFFFF),
+                            _clamp(count, 0, 0xFFFF))
     except (struct.error, TypeError) as exc:
         raise _not_int(f, exc) from None
 
 
-def decode_fault(data) -> Fault:
-    """Decode ``FAULT``; raises MalformedFrame."""
-    _check_len(data, "FAULT")
-    dt, code, mal, crc, detail = _S_FAULT.unpack(data)
-    dtype = _DT_BY_VALUE.get(dt)
-    if dtype is None or dtype == _DT_HOST:
-        raise MalformedFrame("FAULT", "device_type", "a board DeviceType (1, 2, 3)", dt)
-    return Fault(dtype, _enum_or_raise(_FAULT, code, "FAULT", "code", MalformedFrame), mal, crc, detail)
+def decode_emcy(data) -> Emcy:
+    """Decode ``EMCY``; raises MalformedFrame."""
+    _check_len(data, "EMCY")
+    code, reg, fault, detail, count = _S_EMCY.unpack(data)
+    return Emcy(code, reg, _enum_or_raise(_FAULT, fault, "EMCY", "fault_code", MalformedFrame),
+                detail, count)
 
 
 # -- AXIS_STATUS ----------------------------------------------------------------------------------
@@ -716,36 +773,40 @@ def decode_focus_command(data) -> FocusCommandFrame:
     return FocusCommandFrame(_enum_or_raise(_FCMD, cmd, "FOCUS_COMMAND", "cmd", MalformedFrame), value)
 
 
-# -- HEARTBEAT ------------------------------------------------------------------------------------
-_S_HEARTBEAT = struct.Struct("<BBBxHH")
+# -- SDO (request 0x600 + node, response 0x580 + node) ---------------------------------------------
+_S_SDO = struct.Struct("<BHBI")
 
 
-def encode_heartbeat(device_type: int, state: int, reset_cause: int, malformed_frames: int = 0,
-                     uptime_s: int = 0) -> bytes:
-    """Encode ``HEARTBEAT`` (0x700 + node): sender's DeviceType, NodeState, ResetCause,
-    malformed_frames u16 (saturates), uptime_s u16 (wraps)."""
-    f = "HEARTBEAT"
-    if device_type not in _DT_BY_VALUE:
-        raise EncodeError(f, "device_type", "DeviceType in [1, 2, 3, 16]", device_type)
-    _enum_or_raise(_STATE, state, f, "state", EncodeError)
-    _enum_or_raise(_CAUSE, reset_cause, f, "reset_cause", EncodeError)
+def encode_sdo(command: int, index: int = 0, subindex: int = 0, data: int = 0) -> bytes:
+    """Encode an SDO frame in the initiate layout (CiA 301 §7.2.4.3): command specifier, index
+    u16, sub-index, 4 data bytes (u32 LE). Segment frames carry 7 data bytes after byte 0 in the
+    same 8 bytes."""
     try:
-        return _S_HEARTBEAT.pack(device_type, state, reset_cause,
-                                 _clamp(malformed_frames, 0, 0xFFFF), uptime_s & 0xFFFF)
+        return _S_SDO.pack(command, index, subindex, data)
     except (struct.error, TypeError) as exc:
-        raise _not_int(f, exc) from None
+        raise _not_int("SDO", exc) from None
+
+
+def decode_sdo(data) -> Sdo:
+    """Decode an SDO frame (any 8 bytes); raises MalformedFrame on another length."""
+    _check_len(data, "SDO")
+    return Sdo(*_S_SDO.unpack(data))
+
+
+# -- HEARTBEAT ------------------------------------------------------------------------------------
+
+
+def encode_heartbeat(state: int) -> bytes:
+    """Encode the CiA 301 ``HEARTBEAT`` (0x700 + node, DLC 1): the NMT state (0 = boot-up)."""
+    _enum_or_raise(_STATE, state, "HEARTBEAT", "state", EncodeError)
+    return bytes((int(state),))
 
 
 def decode_heartbeat(data) -> Heartbeat:
     """Decode ``HEARTBEAT``; raises MalformedFrame."""
-    _check_len(data, "HEARTBEAT")
-    dt, state, cause, mal, up = _S_HEARTBEAT.unpack(data)
-    dtype = _DT_BY_VALUE.get(dt)
-    if dtype is None:
-        raise MalformedFrame("HEARTBEAT", "device_type", "DeviceType in [1, 2, 3, 16]", dt)
-    return Heartbeat(dtype, _enum_or_raise(_STATE, state, "HEARTBEAT", "state", MalformedFrame),
-                     _enum_or_raise(_CAUSE, cause, "HEARTBEAT", "reset_cause", MalformedFrame),
-                     mal, up)
+    if len(data) != 1:
+        raise MalformedFrame("HEARTBEAT", "dlc", "1", len(data))
+    return Heartbeat(_enum_or_raise(_STATE, data[0], "HEARTBEAT", "state", MalformedFrame))
 
 
 # ------------------------------------------------------------------------------------------------
@@ -791,6 +852,8 @@ class FrameSpec(NamedTuple):
     encode: Callable
     decode: Callable
     doc: str
+    dlc: int = 8                 #: data length (CANopen NMT 2, heartbeat 1)
+    device_type_byte: bool = True  #: byte 0 is the sender's device type (False: CANopen layouts)
 
 
 def _fl(names: tuple) -> tuple:
@@ -808,12 +871,18 @@ def _add(spec: FrameSpec) -> None:
     FRAMES[spec.name] = spec
 
 
-_add(FrameSpec("HOST_BROADCAST", FC_HOST_BROADCAST, (None,), "host", None, (
-    Field("cmd", 1, 8, False, 1, 3, "enum", enum=BroadcastCommand),
+_add(FrameSpec("NMT", FC_NMT, (None,), "host", None, (
+    Field("cmd", 0, 8, False, 1, 0x82, "enum", enum=NmtCommand),
+    Field("target_node", 1, 8, False, 0, 127, "id", doc="0 = all nodes"),
+), Nmt, encode_nmt, decode_nmt,
+    "CANopen NMT (CiA 301), host to all: start, stop, pre-operational, reset node, reset "
+    "communication", dlc=2, device_type_byte=False))
+
+_add(FrameSpec("STOP_ALL", FC_STOP_ALL, (None,), "host", None, (
+    Field("cmd", 1, 8, False, 3, 3, "enum", enum=BroadcastCommand),
     Field("target_node", 2, 8, False, 0, 255, "id", doc="0 = all nodes"),
-    Field("reset_cause", 3, 8, False, 0, 2, "enum", enum=ResetCause),
-), HostBroadcast, encode_host_broadcast, decode_host_broadcast,
-    "host to all: PING (answered by HEARTBEAT), RESET, STOP_ALL"))
+), StopAll, encode_stop_all, decode_stop_all,
+    "host TPDO1 to every board with motion (their RPDO3): stop"))
 
 _add(FrameSpec("LIMIT", FC_LIMIT, READER_NODES, "node", None, (
     Field("axis", 1, 8, False, 0, 1, "enum", enum=Axis),
@@ -824,12 +893,17 @@ _add(FrameSpec("LIMIT", FC_LIMIT, READER_NODES, "node", None, (
 ), Limit, encode_limit, decode_limit,
     "reader to axis controller: on change, then every 100 ms while a limit is active"))
 
-_add(FrameSpec("FAULT", FC_FAULT, BOARD_NODES, "node", None, (
-    Field("code", 1, 8, False, 1, 12, "enum", enum=FaultCode),
-    Field("malformed_frames", 2, 16, False, 0, 0xFFFF, "clamp", unit="frames"),
-    Field("crc_errors", 4, 16, False, 0, 0xFFFF, "clamp", unit="reads"),
-    Field("detail", 6, 16, False, 0, 0xFFFF, "clamp", doc="code-specific, e.g. offending COB-ID"),
-), Fault, encode_fault, decode_fault, "any board to host, on event"))
+_add(FrameSpec("EMCY", FC_EMCY, BOARD_NODES, "node", None, (
+    Field("error_code", 0, 16, False, 0, 0xFFFF, "id",
+          doc="CiA 301 error code, 0 = error reset (docs/canopen.md EMCY codes)"),
+    Field("error_register", 2, 8, False, 0, 0xFF, "id", doc="object 0x1001"),
+    Field("fault_code", 3, 8, False, 0, max(FaultCode), "enum", enum=FaultCode),
+    Field("detail", 4, 16, False, 0, 0xFFFF, "clamp",
+          doc="code-specific, e.g. offending COB-ID; error reset: the cleared error code"),
+    Field("count", 6, 16, False, 0, 0xFFFF, "clamp", doc="occurrences since reset"),
+), Emcy, encode_emcy, decode_emcy,
+    "CANopen EMCY, any board to host, on event; error reset (code 0) when a condition clears",
+    device_type_byte=False))
 
 _add(FrameSpec("AXIS_STATUS", FC_STATUS, AXIS_NODES, "node", AXIS_STATUS_PERIOD_US, (
     Field("mode", 1, 8, False, 0, 8, "enum", enum=AxisMode),
@@ -884,12 +958,25 @@ _add(FrameSpec("FOCUS_COMMAND", FC_COMMAND, (NodeId.FOCUS,), "host", None, (
           dbc_unit="halfsteps"),
 ), FocusCommandFrame, encode_focus_command, decode_focus_command, "host to focus controller"))
 
+_SDO_FIELDS = (
+    Field("command", 0, 8, False, 0, 255, "id", doc="SDO command specifier (CiA 301 7.2.4.3)"),
+    Field("index", 1, 16, False, 0, 0xFFFF, "id", doc="object index (initiate and abort frames)"),
+    Field("subindex", 3, 8, False, 0, 255, "id"),
+    Field("data", 4, 32, False, 0, 0xFFFFFFFF, "id",
+          doc="expedited data, size or abort code (u32 LE)"),
+)
+_add(FrameSpec("SDO_RESPONSE", FC_SDO_TX, BOARD_NODES, "node", None, _SDO_FIELDS, Sdo, encode_sdo,
+               decode_sdo, "CANopen SDO server to client (the host): answers, aborts",
+               device_type_byte=False))
+_add(FrameSpec("SDO_REQUEST", FC_SDO_RX, BOARD_NODES, "host", None, _SDO_FIELDS, Sdo, encode_sdo,
+               decode_sdo, "CANopen SDO client (the host) to server: read and write objects; the "
+               "health check reads 0x1000", device_type_byte=False))
+
 _add(FrameSpec("HEARTBEAT", FC_HEARTBEAT, ALL_NODES, "node", HEARTBEAT_PERIOD_US, (
-    Field("state", 1, 8, False, 0, 3, "enum", enum=NodeState),
-    Field("reset_cause", 2, 8, False, 0, 2, "enum", enum=ResetCause),
-    Field("malformed_frames", 4, 16, False, 0, 0xFFFF, "clamp", unit="frames"),
-    Field("uptime_s", 6, 16, False, 0, 0xFFFF, "wrap", unit="s", dbc_unit="s"),
-), Heartbeat, encode_heartbeat, decode_heartbeat, "every node, every 1 s and in answer to PING"))
+    Field("state", 0, 8, False, 0, 127, "enum", enum=NodeState),
+), Heartbeat, encode_heartbeat, decode_heartbeat,
+    "CiA 301 heartbeat of every node at its 0x1017 period (1 s); boot-up message = state 0",
+    dlc=1, device_type_byte=False))
 
 #: Per-command DBC signal for ``AXIS_COMMAND.value`` (the DBC multiplexes it by ``cmd``):
 #: command -> (signal name, factor, unit).
@@ -899,6 +986,13 @@ AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.VELOCITY] = ("velocity", 0.001, "arcsec/s
 AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.OPEN_LOOP] = ("open_loop_duty", 1 / Q15_FULL_SCALE, "duty")
 AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.SET_KP] = ("kp", 1e-6, "duty/(arcsec/s)")
 AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.SET_KI] = ("ki", 1e-6, "duty/(arcsec/s)")
+#: Raw range of ``AXIS_COMMAND.value`` the axis firmware accepts, per command (the DBC's ranges;
+#: other commands: the whole i32). Out of range: the firmware counts the frame malformed.
+AXIS_COMMAND_VALUE_RANGES: dict[AxisCommand, tuple[int, int]] = {
+    AxisCommand.OPEN_LOOP: (-Q15_FULL_SCALE, Q15_FULL_SCALE),
+    AxisCommand.SET_KP: (0, I32_MAX),
+    AxisCommand.SET_KI: (0, I32_MAX),
+}
 
 
 # ------------------------------------------------------------------------------------------------
@@ -925,8 +1019,6 @@ del _spec, _node, _cob
 
 _DECODERS = {cob: entry[1].decode for cob, entry in COB_TABLE.items()}
 _NAMES = {cob: entry[0] for cob, entry in COB_TABLE.items()}
-_SENDER_DT = {cob: DEVICE_TYPE_OF_NODE[node] for cob, (_, spec, node) in COB_TABLE.items()
-              if spec.name in ("FAULT", "HEARTBEAT")}
 
 
 def frame_name(cob_id: int) -> str:
@@ -955,17 +1047,13 @@ def decode(cob_id: int, data) -> NamedTuple:
     ------
     MalformedFrame
         Unknown identifier (``field="cob_id"``), or the frame's decoder refuses it; for
-        ``FAULT``/``HEARTBEAT`` also when byte 0 is not the device type of the sending node.
+        frames with a device-type byte, when it is not the sender's.
     """
     decoder = _DECODERS.get(cob_id)
     if decoder is None:
         raise MalformedFrame(frame_name(cob_id), "cob_id", "a schmidt protocol identifier",
                              hex(cob_id))
-    frame = decoder(data)
-    dt = _SENDER_DT.get(cob_id)
-    if dt is not None and frame.device_type != dt:
-        raise _bad_type(_NAMES[cob_id], dt, int(frame.device_type))
-    return frame
+    return decoder(data)
 
 
 def dbc_signals(cob_id: int, frame) -> dict:
@@ -975,10 +1063,9 @@ def dbc_signals(cob_id: int, frame) -> dict:
     its command selects. Used to check that the DBC and the struct codecs agree.
     """
     _, spec, node = COB_TABLE[cob_id]
-    dt = getattr(frame, "device_type", None)
-    if dt is None:
-        dt = DeviceType.HOST if spec.sender == "host" else DEVICE_TYPE_OF_NODE[node]
-    sig = {"device_type": int(dt)}
+    sig = {}
+    if spec.device_type_byte:
+        sig["device_type"] = int(DeviceType.HOST if spec.sender == "host" else DEVICE_TYPE_OF_NODE[node])
     for f in spec.fields:
         v = int(getattr(frame, f.name))
         if f.kind == "flags":
@@ -1029,14 +1116,17 @@ def _fmt(x: float) -> str:
 
 
 def _receivers(spec: FrameSpec, node) -> str:
-    if spec.name == "HOST_BROADCAST":
+    if spec.name == "NMT":
         return ",".join(NODE_NAME[n] for n in BOARD_NODES)
+    if spec.name == "STOP_ALL":
+        return ",".join(NODE_NAME[n] for n in BOARD_NODES if DEVICE_TYPE_OF_NODE[n] in
+                        (DeviceType.AXIS_CONTROLLER, DeviceType.FOCUS_CONTROLLER))
     if spec.sender == "host":
         return NODE_NAME[node]
     if spec.name == "LIMIT":
         return NODE_NAME[NodeId.RA_AXIS if node == NodeId.RA_READER else NodeId.DEC_AXIS]
-    if node == NodeId.HOST:
-        return "Vector__XXX"
+    if spec.name == "HEARTBEAT" and node == NodeId.HOST:
+        return ",".join(NODE_NAME[n] for n in BOARD_NODES)     # the host watchdog (0x1016)
     return "HOST"
 
 
@@ -1048,10 +1138,12 @@ def dbc_text() -> str:
     for cob, (name, spec, node) in sorted(COB_TABLE.items()):
         tx = "HOST" if spec.sender == "host" or node is None else NODE_NAME[node]
         rx = _receivers(spec, node)
-        out.append(f"BO_ {cob} {name}: 8 {tx}")
-        out.append(f' SG_ device_type : 0|8@1+ (1,0) [0|255] "" {rx}')
-        values.append(f"VAL_ {cob} device_type " +
-                      " ".join(f'{int(d)} "{d.name}"' for d in DeviceType) + " ;")
+        out.append(f"BO_ {cob} {name}: {spec.dlc} {tx}")
+        if spec.device_type_byte:
+            dt = int(DeviceType.HOST if spec.sender == "host" else DEVICE_TYPE_OF_NODE[node])
+            out.append(f' SG_ device_type : 0|8@1+ (1,0) [{dt}|{dt}] "" {rx}')
+            values.append(f"VAL_ {cob} device_type " +
+                          " ".join(f'{int(d)} "{d.name}"' for d in DeviceType) + " ;")
         comments.append(f'CM_ BO_ {cob} "{spec.doc}";')
         if spec.period_us:
             cycles.append(f'BA_ "GenMsgCycleTime" BO_ {cob} {spec.period_us // 1000};')
@@ -1064,8 +1156,9 @@ def dbc_text() -> str:
                 continue
             if spec.name == "AXIS_COMMAND" and f.name == "value":
                 for cmd, (sig, factor, unit) in AXIS_COMMAND_VALUE_SIGNALS.items():
+                    lo, hi = AXIS_COMMAND_VALUE_RANGES.get(cmd, (f.lo, f.hi))
                     out.append(f" SG_ {sig} m{int(cmd)} : {start}|{f.bits}@1{sign} "
-                               f'({_fmt(factor)},0) [{_fmt(f.lo * factor)}|{_fmt(f.hi * factor)}]'
+                               f'({_fmt(factor)},0) [{_fmt(lo * factor)}|{_fmt(hi * factor)}]'
                                f' "{unit}" {rx}')
                 continue
             mux = " M" if spec.name == "AXIS_COMMAND" and f.name == "cmd" else ""
@@ -1082,6 +1175,52 @@ def dbc_text() -> str:
             'BA_DEF_ BO_ "GenMsgCycleTime" INT 0 65535;',
             'BA_DEF_DEF_ "GenMsgCycleTime" 0;', *cycles, "", *values, ""]
     return "\n".join(out)
+
+
+def _range_text(f: Field) -> str:
+    if f.kind == "flags":
+        return ", ".join(f"bit{i} {n}" for i, n in enumerate(f.flag_names))
+    if f.enum is not None and f.kind == "enum":
+        return ", ".join(f"{int(m)} {m.name}" for m in f.enum if f.lo <= int(m) <= f.hi)
+    return f"{f.lo}..{f.hi}"
+
+
+def _type_text(f: Field) -> str:
+    return f"{'i' if f.signed else 'u'}{f.bits}"
+
+
+def frames_markdown() -> str:
+    """The frame sections of docs/protocol.md (a test checks the page contains exactly this)."""
+    out = []
+    for spec in FRAMES.values():
+        cobs = [cob for cob, (_, s, _) in sorted(COB_TABLE.items()) if s is spec]
+        period = f"{spec.period_us // 1000} ms" if spec.period_us else "event"
+        out += [f"### {spec.name} — {', '.join(f'0x{c:03X}' for c in cobs)} "
+                f"(DLC {spec.dlc}, {period})", "", spec.doc + ".", "",
+                "| bytes | field | type | range | kind | unit / meaning | DBC signal |",
+                "|---|---|---|---|---|---|---|"]
+        if spec.device_type_byte:
+            dt = "0x10 HOST" if spec.sender == "host" else "the sender's DeviceType"
+            out.append(f"| 0 | device_type | u8 | {dt} | fixed | | device_type |")
+        for f in spec.fields:
+            nbytes = (f.bits + 7) // 8
+            b = str(f.start_byte) if nbytes == 1 else f"{f.start_byte}–{f.start_byte + nbytes - 1}"
+            meaning = " ".join(x for x in (f.unit, f.doc) if x)
+            if f.kind == "flags":
+                sig = "one 1-bit signal per flag"
+            elif spec.name == "AXIS_COMMAND" and f.name == "value":
+                sig = "per cmd (multiplexed): " + ", ".join(
+                    f"{n} ×{factor:g}{' ' + u if u else ''}"
+                    + (f" [{AXIS_COMMAND_VALUE_RANGES[c][0]}..{AXIS_COMMAND_VALUE_RANGES[c][1]} raw]"
+                       if c in AXIS_COMMAND_VALUE_RANGES else "")
+                    for c, (n, factor, u) in AXIS_COMMAND_VALUE_SIGNALS.items())
+            else:
+                sig = (f.dbc_name or f.name) + (f" ×{f.factor:g}" if f.factor != 1 else "") + (
+                    f" [{f.dbc_unit}]" if f.dbc_unit else "")
+            out.append(f"| {b} | {f.name} | {_type_text(f)} | {_range_text(f)} | {f.kind} | "
+                       f"{meaning} | {sig} |")
+        out.append("")
+    return "\n".join(out).rstrip("\n")
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -2,7 +2,7 @@
 boards and the plant on a SocketCAN bus, in real time, for a host program outside the emulator.
 
 Our host node only listens (``host.monitor.BusMonitor``) and logs; the external program sends
-the PINGs and commands. Runs until ``--duration`` seconds have passed or SIGINT/SIGTERM; either
+the health check (SDO), NMT start and commands. Runs until ``--duration`` seconds have passed or SIGINT/SIGTERM; either
 way the logs are flushed and ``report.json``/``report.md`` written before it exits (status 0).
 A second SIGINT interrupts at once (the logs are still closed).
 """
@@ -52,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
         say(f"schmidt-fil serve: scenario {path} ({scenario.name}; {len(scenario.segments)} segment(s) not run), "
             f"plant preload {session.tel.params.axes['ra'].friction.preload}, "
             f"{len(scenario.faults)} fault(s) scheduled")
-        say(f"channel {chan} (socketcan), CAN 2.0A 11-bit ids, DLC 8; our host node 0x10 only listens")
+        say(f"channel {chan} (socketcan), CAN 2.0A 11-bit ids, CANopen (boards boot PRE-OPERATIONAL: send NMT start); our host node 0x10 only listens")
         for b in served_interface():
             sends = " ".join(f"{c:03X}" for c, _ in b["sends"])
             listens = " ".join(f"{c:03X}" for c, _ in b["listens"])

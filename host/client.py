@@ -1,8 +1,14 @@
 """The host client: the operator PC on the CAN bus (the USB-to-CAN node of paper §3.4).
 
-It talks to the boards only through the documented 8-byte frames (``bus.protocol``) over any
-python-can ``BusABC``: power-on with a health check, motion commands, and the status it decodes
-from what the boards publish. It never touches a board or the plant directly.
+It talks to the boards only through the documented frames (``bus.protocol``, docs/protocol.md)
+over any python-can ``BusABC``: power-on with a health check, motion commands, and the status it
+decodes from what the boards publish. It never touches a board or the plant directly.
+
+CANopen (docs/canopen.md): the host is node 0x10, the NMT master and the SDO client. Its
+power-on health check is an SDO upload of object 0x1000 from every expected node (the answer on
+0x580 + node replaces the old PING's heartbeat); then it starts the nodes with NMT start and
+produces its own CiA heartbeat on 0x710 every second (the boards may consume it as the host
+watchdog, object 0x1016).
 """
 
 from __future__ import annotations
@@ -15,7 +21,7 @@ import can
 from bus import protocol as P
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_HOST, Scheduler
-from boards.registry import NODE_NAMES, nodes_of_kind
+from boards.registry import NODE_NAMES, REGISTRY, nodes_of_kind
 from bus.units import TICK_US, duty_to_q15, q15_to_duty
 
 __all__ = ["HostClient", "Health", "AxisState", "NODE_NAMES", "AXIS_NODES"]
@@ -23,6 +29,8 @@ __all__ = ["HostClient", "Health", "AxisState", "NODE_NAMES", "AXIS_NODES"]
 AXIS_NODES = nodes_of_kind("axis_controller")       #: {"ra": 1, "dec": 2}
 READER_NODES = nodes_of_kind("position_reader")    #: {"ra": 3, "dec": 4}
 _AXIS_OF_NODE = {node: axis for axis, node in AXIS_NODES.items()}
+#: EDS (board kind) of each node: what the host's SDO client reads it with.
+_EDS_OF_NODE = {int(i.node_id): s.firmware.CANOPEN_KIND for s in REGISTRY for i in s.instances}
 
 _MODE_CMD = {
     "stop": P.AxisCommand.STOP,
@@ -74,8 +82,13 @@ class Health:
     """Result of the power-on health check."""
 
     ok: bool
-    answered: dict[str, int]        # board -> simulated time of its answer [µs]
+    answered: dict[str, int]        # board -> simulated time of its SDO answer [µs]
     missing: list[str]
+    latency_us: dict[str, int] = field(default_factory=dict)   # board -> answer − request [µs]
+
+
+#: SDO upload request of object 0x1000 sub 0 (CiA 301 initiate upload, cs 0x40): the health check.
+SDO_UPLOAD_1000 = bytes((0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0))
 
 
 @dataclass
@@ -115,12 +128,14 @@ class HostClient:
     advance: Callable[[int], None] | None = None
     arcsec_per_count: dict = field(default_factory=dict)
 
-    BOOT_US = 20_000       #: wait after power-on before the health-check PING [µs] (assumed)
+    BOOT_US = 20_000       #: wait after power-on before the health check [µs] (assumed)
+    POWER_ON_US = 100_000  #: time the boards have to answer the health check's SDO [µs] (assumed)
+    HEARTBEAT_US = 1_000_000   #: the host's CiA heartbeat period [µs] (its EDS 0x1017, 1000 ms)
+    POLL_US = 1_000            #: step while waiting for the health check's answers [µs]
     #: A board whose heartbeat (1 s period) has not arrived for this long is LOST [µs]: 2.5
     #: periods (assumed; CiA 301 practice is a consumer time of 1.5–3 producer periods).
     HEARTBEAT_TIMEOUT_US = 2_500_000
     HEARTBEAT_CHECK_US = 100_000   #: how often the host checks [µs] (a lost board is logged ≤ 0.1 s late)
-    POWER_ON_US = 100_000  #: time the boards have to answer the PING [µs] (assumed)
     QEI_WRAP = 1 << 24
 
     def __post_init__(self) -> None:
@@ -128,7 +143,17 @@ class HostClient:
         self.setpoints = {"ra": 0.0, "dec": 0.0}   # the rate each axis was last commanded [arcsec/s]
         self.positions = {"ra": PositionState(), "dec": PositionState()}
         self.focus = FocusState()
-        self.heartbeats: dict[int, tuple[int, int, int]] = {}   # node -> (t_us, state, malformed)
+        self.heartbeats: dict[int, tuple[int, int]] = {}   # node -> (t_us, NMT state)
+        self.sdo_answers: dict[int, int] = {}   # node -> time of its last SDO response [µs]
+        self.emcy_active: dict[int, dict[int, int]] = {}   # node -> {error code: detail}
+        self.emcy_frames = 0
+        self._heartbeat_event = None
+        #: called with (can_id, data, t_us) for SDO responses, EMCY and heartbeats (a canopen
+        #: master network's ``notify``, host/canopen_master.py)
+        self.canopen_notify: Callable | None = None
+        self.canopen = None                       # host.canopen_master.HostCanopenNetwork, at power-on
+        self.identities: dict[str, dict] = {}     # board -> identity read by SDO at power-on
+        self.parameters: dict[str, dict] = {}     # board -> parameters read back by SDO
         self.frames_received = 0
         self.malformed_frames = 0
         self._errors: list[str] = []
@@ -139,7 +164,7 @@ class HostClient:
         # frame type -> handler, built once (not looked up by name for every frame)
         self._handlers = {
             P.AxisStatus: self._on_AxisStatus, P.AxisAux: self._on_AxisAux, P.Position: self._on_Position,
-            P.FocusStatus: self._on_FocusStatus, P.Heartbeat: self._on_Heartbeat, P.Fault: self._on_Fault,
+            P.FocusStatus: self._on_FocusStatus, P.Heartbeat: self._on_Heartbeat, P.Emcy: self._on_Emcy,
             P.Limit: self._on_Limit,
         }
         if hasattr(self.bus, "set_rx_callback"):
@@ -161,6 +186,14 @@ class HostClient:
 
     def _handle(self, msg: can.Message) -> None:
         now = self.scheduler.now_us
+        cob = msg.arbitration_id
+        if P.FC_SDO_TX < cob < P.FC_SDO_RX:          # an SDO response (not in the frame table)
+            self.sdo_answers[cob - P.FC_SDO_TX] = now
+            if self.canopen_notify is not None:
+                self.canopen_notify(cob, bytes(msg.data), now)
+            return
+        if self.canopen_notify is not None and (cob >> 7) in (0x1, 0xE):   # EMCY, heartbeat
+            self.canopen_notify(cob, bytes(msg.data), now)
         try:
             frame = P.decode(msg.arbitration_id, bytes(msg.data))
         except MalformedFrame as exc:
@@ -216,15 +249,14 @@ class HostClient:
 
     def _on_Heartbeat(self, cob_id: int, f, now: int) -> None:
         node = P.node_of(cob_id)
-        self.heartbeats[node] = (now, f.state, f.malformed_frames)
+        self.heartbeats[node] = (now, f.state)
         if node in self.lost:
             self.lost.discard(node)
             self._error(now, NODE_NAMES.get(node, str(node)), "heartbeat-back", "the board answers again")
         if self._last_state.get(node) != f.state:
             if self.logs:
                 self.logs.status(now, node, NODE_NAMES.get(node, str(node)), "state",
-                                 f"{P.NodeState(f.state).name} reset_cause={P.ResetCause(f.reset_cause).name} "
-                                 f"malformed={f.malformed_frames}")
+                                 P.NodeState(f.state).name)
             self._last_state[node] = f.state
 
     def watch_heartbeats(self) -> None:
@@ -244,10 +276,20 @@ class HostClient:
                             f"no heartbeat for {(now - seen[0]) / 1e6:.2f} s (timeout "
                             f"{self.HEARTBEAT_TIMEOUT_US / 1e6:.1f} s)")
 
-    def _on_Fault(self, cob_id: int, f, now: int) -> None:
+    def _on_Emcy(self, cob_id: int, f, now: int) -> None:
         node = P.node_of(cob_id)
-        self._error(now, NODE_NAMES.get(node, str(node)), P.FaultCode(f.code).name.lower(),
-                    f"malformed={f.malformed_frames} crc_errors={f.crc_errors} detail={f.detail}")
+        self.emcy_frames += 1
+        active = self.emcy_active.setdefault(node, {})
+        source = NODE_NAMES.get(node, str(node))
+        if f.error_code == 0:          # error reset: detail = the cleared error code
+            active.pop(f.detail, None)
+            self._error(now, source, "cleared", f"{P.FaultCode(f.fault_code).name.lower()} "
+                        f"emcy=0x{f.detail:04X} register=0x{f.error_register:02X}")
+            return
+        active[f.error_code] = f.detail
+        self._error(now, source, P.FaultCode(f.fault_code).name.lower(),
+                    f"emcy=0x{f.error_code:04X} register=0x{f.error_register:02X} detail={f.detail} "
+                    f"count={f.count}")
 
     def _on_Limit(self, cob_id: int, f, now: int) -> None:
         node = P.node_of(cob_id)
@@ -269,9 +311,57 @@ class HostClient:
         if self.logs:
             self.logs.command(self.scheduler.now_us, target, what, detail)
 
+    def send_nmt(self, cmd: int, target_node: int = 0) -> None:
+        """Send an NMT command (``bus.protocol.NmtCommand``; target 0 = all nodes)."""
+        self.bus.send(can.Message(arbitration_id=P.nmt_cob_id(),
+                                  data=P.encode_nmt(cmd, target_node), is_extended_id=False))
+        if self.logs:
+            target = "all" if target_node == 0 else NODE_NAMES.get(target_node, f"node-{target_node}")
+            self.logs.command(self.scheduler.now_us, target, f"NMT {P.NmtCommand(cmd).name}", "")
+
+    def start_heartbeat(self) -> None:
+        """Produce the host's CiA heartbeat (0x710, state OPERATIONAL) every :attr:`HEARTBEAT_US`,
+        the first one now."""
+        if self._heartbeat_event is not None:
+            return
+        cob, data = P.heartbeat_cob_id(P.NODE_HOST), P.encode_heartbeat(P.NodeState.OPERATIONAL)
+
+        def beat(now_us: int) -> None:
+            self.bus.send(can.Message(arbitration_id=cob, data=data, is_extended_id=False))
+
+        self._heartbeat_event = self.scheduler.call_every(
+            self.HEARTBEAT_US, beat, start_us=self.scheduler.now_us, priority=PRIO_HOST,
+            owner="host-heartbeat")
+
+    def read_boards(self, nodes) -> None:
+        """Read identity (0x1018, 0x1008, 0x100A) and parameters (the EDS's manufacturer objects
+        with a range) of each node by SDO with canopen's ``RemoteNode``
+        (:mod:`host.canopen_master`); kept in :attr:`identities` / :attr:`parameters` by board
+        name for the report. A node that stops answering is logged as an error."""
+        from host.canopen_master import (HostCanopenNetwork, SdoAbortedError,
+                                         SdoCommunicationError, read_identity, read_parameters)
+        if self.canopen is None:
+            self.canopen = HostCanopenNetwork(self.bus, lambda: self.scheduler.now_us,
+                                              self.advance or self.scheduler.run_until)
+            self.canopen_notify = self.canopen.notify
+        for n in nodes:
+            name = NODE_NAMES[n]
+            node = self.canopen.nodes.get(n) or self.canopen.add_board(_EDS_OF_NODE[n], n)
+            try:
+                self.identities[name] = read_identity(node)
+                self.parameters[name] = read_parameters(node)
+            except (SdoAbortedError, SdoCommunicationError) as exc:
+                self._error(self.scheduler.now_us, name, "sdo", f"identity/parameters: {exc}")
+        if self.logs:
+            self.logs.status(self.scheduler.now_us, P.NODE_HOST, "host", "identity",
+                             " ".join(f"{k}={v['device_name']!r}/{v['serial_number']:#x}"
+                                      for k, v in self.identities.items()))
+
     def power_on(self) -> Health:
-        """Let the boards boot (``BOOT_US``), ping them all and wait ``POWER_ON_US`` of
-        simulated time for the heartbeats that answer the ping.
+        """Let the boards boot (``BOOT_US``), read object 0x1000 of every expected node by SDO
+        and wait (at most ``POWER_ON_US``) for the answers; read identity and parameters of every
+        node that answered (:meth:`read_boards`); at ``POWER_ON_US`` after the check (later only
+        if the reads took longer) NMT start (all nodes) and the host's own heartbeat.
 
         Returns
         -------
@@ -279,22 +369,35 @@ class HostClient:
             ``ok`` is false and ``missing`` names each board that did not answer in time.
         """
         run_until = self.advance or self.scheduler.run_until
-        # let the boards finish booting (their boot heartbeats are not an answer to the ping)
+        # the boards boot into PRE-OPERATIONAL (boot-up message); SDO works there
         run_until(self.scheduler.now_us + self.BOOT_US)
         t0 = self.scheduler.now_us
-        self._send(P.host_broadcast_cob_id(), P.encode_host_broadcast(P.BroadcastCommand.PING, 0, P.ResetCause.POWER_ON), "all", "PING",
-                   "power-on health check")
-        run_until(t0 + self.POWER_ON_US)
-        answered = {NODE_NAMES[n]: self.heartbeats[n][0] for n in self.expected_nodes
-                    if n in self.heartbeats and self.heartbeats[n][0] >= t0}
+        for n in self.expected_nodes:
+            self.bus.send(can.Message(arbitration_id=P.sdo_request_cob_id(n), data=SDO_UPLOAD_1000,
+                                      is_extended_id=False))
+        if self.logs:
+            self.logs.command(t0, "all", "SDO upload 0x1000", "power-on health check")
+        while (self.scheduler.now_us < t0 + self.POWER_ON_US
+               and any(self.sdo_answers.get(n, -1) < t0 for n in self.expected_nodes)):
+            run_until(min(self.scheduler.now_us + self.POLL_US, t0 + self.POWER_ON_US))
+        # the health check's answers (before the identity reads add answers of their own)
+        answered = {NODE_NAMES[n]: self.sdo_answers[n] for n in self.expected_nodes
+                    if self.sdo_answers.get(n, -1) >= t0}
+        self.read_boards([n for n in self.expected_nodes if self.sdo_answers.get(n, -1) >= t0])
+        if self.scheduler.now_us < t0 + self.POWER_ON_US:
+            run_until(t0 + self.POWER_ON_US)
         missing = [NODE_NAMES[n] for n in self.expected_nodes if NODE_NAMES[n] not in answered]
         for name in missing:
-            self._error(self.scheduler.now_us, name, "no-answer", f"no heartbeat within {self.POWER_ON_US // 1000} ms of PING")
+            self._error(self.scheduler.now_us, name, "no-answer",
+                        f"no SDO answer within {self.POWER_ON_US // 1000} ms")
         if self.logs:
             self.logs.status(self.scheduler.now_us, P.NODE_HOST, "host", "health-check",
                              "ok" if not missing else "missing " + ",".join(missing))
+        self.send_nmt(P.NmtCommand.START)
+        self.start_heartbeat()
         self.watch_heartbeats()
-        return Health(ok=not missing, answered=answered, missing=missing)
+        return Health(ok=not missing, answered=answered, missing=missing,
+                      latency_us={k: v - t0 for k, v in answered.items()})
 
     def command_axis(self, axis: str, mode: str, direction: int = 1, rate_arcsec_s: float | None = None) -> float:
         """Send an ``AXIS_COMMAND``; return the signed setpoint rate [arcsec/s] it means.
@@ -349,7 +452,14 @@ class HostClient:
         """Send an arbitrary frame (fault injection: malformed frames)."""
         self._send(cob_id, data, target, "RAW", data.hex())
 
+    def stop_all(self, target_node: int = 0) -> None:
+        """Send ``STOP_ALL`` (0x190; target 0 = every board with motion)."""
+        self._send(P.stop_all_cob_id(), P.encode_stop_all(target_node=target_node), "all", "STOP_ALL")
+
     def close(self) -> None:
         if self._poll_event is not None:
             self.scheduler.cancel(self._poll_event)
+        if self._heartbeat_event is not None:
+            self.scheduler.cancel(self._heartbeat_event)
+            self._heartbeat_event = None
 

@@ -67,7 +67,7 @@ def _endat_bit_flip(tel, fault, now_us: int) -> None:
 
 def _malformed_frame(tel, fault, now_us: int) -> None:
     spec, inst = registry_board(fault.board)
-    cob = spec.accepts(inst.node_id)[-1][0]  # the board's own command frame (the broadcast if none)
+    cob = spec.accepts(inst.node_id)[-1][0]  # its own command frame (its SDO request id if none)
     # a frame with the wrong device type byte and a short DLC: the board must count it
     tel.client.send_raw(cob, bytes([0xEE, 0x42, 0x00]), fault.board)
 

@@ -19,7 +19,7 @@ broadcast RESET/STOP_ALL, wrong DLC or device type).
 The fuzzer commands SLEW toward the high limits at the start of each block of ``stop_every``
 frames and leaves AXIS_COMMAND out of the adversarial mix for the first half of the block, so
 the axes run into their soft limits under all other traffic (spoofed LIMIT and POSITION frames,
-broadcasts, focus commands, random identifiers). Every ``stop_every`` frames the fuzzer sends HOST_BROADCAST STOP_ALL and measures, on the plant
+broadcasts, focus commands, random identifiers). Every ``stop_every`` frames the fuzzer sends STOP_ALL (0x190) and measures, on the plant
 (not on what the firmware reports), the time until both axes are below
 ``STANDSTILL_ARCSEC_S``; fuzzing resumes after that. Reported: frames sent, exceptions raised by
 the emulator (must be 0), non-finite values seen in the plants' states and the boards' control
@@ -70,9 +70,11 @@ class FrameGenerator:
     """
 
     #: identifiers the boards accept, from the protocol's COB-ID functions
-    TARGET_IDS = (P.host_broadcast_cob_id(), P.axis_command_cob_id(1), P.axis_command_cob_id(2),
+    #: (NMT 0x000 is left out: a random NMT stop/reset would end the run's motion by design)
+    TARGET_IDS = (P.stop_all_cob_id(), P.axis_command_cob_id(1), P.axis_command_cob_id(2),
                   P.focus_command_cob_id(), P.limit_cob_id(3), P.limit_cob_id(4),
-                  P.position_cob_id(3), P.position_cob_id(4), P.heartbeat_cob_id(0x10))
+                  P.position_cob_id(3), P.position_cob_id(4), P.heartbeat_cob_id(0x10),
+                  P.sdo_request_cob_id(1), P.sdo_request_cob_id(3), P.sdo_request_cob_id(5))
 
     _NO_AXIS_CMD = tuple(i for i in TARGET_IDS
                          if i not in (P.axis_command_cob_id(1), P.axis_command_cob_id(2)))
@@ -104,12 +106,19 @@ class FrameGenerator:
             b[0] = 0x10 if r.random() < 0.9 else b[0]
             b[1] = r.randint(0, 6)
             b[4:8] = (self._value() & 0xFFFFFFFF).to_bytes(4, "little")
-        elif aid == P.host_broadcast_cob_id():
+        elif aid == P.stop_all_cob_id():
             b[0] = 0x10
-            # mostly PING; STOP_ALL and RESET rare enough that the axes get moving between them
-            b[1] = r.choices((1, 2, 3, r.randint(0, 255)), weights=(90, 1, 4, 5))[0]
+            # mostly a wrong command byte; a valid STOP_ALL rare enough that the axes get moving
+            b[1] = r.choices((3, r.randint(0, 255)), weights=(5, 95))[0]
             b[2] = r.choice((0, 1, 2, 3, 4, 5, r.randint(0, 255)))
             b[3] = r.randint(0, 3)
+        elif P.FC_SDO_RX < aid < P.FC_SDO_RX + 0x80:
+            # SDO requests: uploads/downloads of real and unknown objects, random payloads
+            b[0] = r.choice((0x40, 0x23, 0x2B, 0x2F, 0x60, 0x80, r.randint(0, 255)))
+            b[1:3] = r.choice((0x1000, 0x1018, 0x2000, 0x2001, 0x2100, 0x2200, 0x2F00,
+                               r.randint(0, 0xFFFF))).to_bytes(2, "little")
+            b[3] = r.randint(0, 5)
+            b[4:8] = bytes(r.randint(0, 255) for _ in range(4))
         elif aid in (P.limit_cob_id(3), P.limit_cob_id(4)):
             b[0] = 2
             b[1] = r.randint(0, 2)
@@ -229,11 +238,11 @@ def run_fuzz(frames: int, seed: int = 0, *, stop_every: int = 20_000,
         # STOP_ALL and SLEW go from a node of their own: behind the fuzzer's own FIFO they would
         # measure the fuzzer's queue, not the boards
         commander = SimBus(network=tel.network, name="fuzz-host")
-        fault_ids = {P.fault_cob_id(b.node_id) for b in tel.boards.values()}
+        fault_ids = {P.emcy_cob_id(b.node_id) for b in tel.boards.values()}
 
-        def count_faults(msg) -> None:     # FAULT frames on the wire, by code (cumulative)
+        def count_faults(msg) -> None:     # EMCY frames on the wire, by fault code (cumulative)
             if msg.arbitration_id in fault_ids and len(msg.data) == 8:
-                code = msg.data[1]
+                code = msg.data[3] if msg.data[0] or msg.data[1] else int(P.FaultCode.FAULT_CLEARED)
                 name = P.FaultCode(code).name if code in P.FaultCode._value2member_map_ else str(code)
                 res.fault_frames[name] = res.fault_frames.get(name, 0) + 1
         tel.network.add_tap(count_faults)
@@ -243,6 +252,9 @@ def run_fuzz(frames: int, seed: int = 0, *, stop_every: int = 20_000,
         sent = 0
         next_stop = stop_every
         block0 = 0
+        # the boards boot PRE-OPERATIONAL: the host's NMT start first (docs/canopen.md)
+        commander.send(can.Message(arbitration_id=P.nmt_cob_id(), is_extended_id=False,
+                                   data=P.encode_nmt(P.NmtCommand.START)))
         _slew_all(commander)
         while sent < frames:
             try:
@@ -306,8 +318,8 @@ def _slew_all(fuzzer) -> None:
 def _measure_stop(tel, fuzzer, res: FuzzResult) -> None:
     """STOP_ALL now; time until both axes (plant truth) are below STANDSTILL_ARCSEC_S."""
     sched = tel.scheduler
-    fuzzer.send(can.Message(arbitration_id=P.host_broadcast_cob_id(), is_extended_id=False,
-                            data=P.encode_host_broadcast(P.BroadcastCommand.STOP_ALL, 0, 0)))
+    fuzzer.send(can.Message(arbitration_id=P.stop_all_cob_id(), is_extended_id=False,
+                            data=P.encode_stop_all()))
     t0 = sched.now_us
     res.stop_trials += 1
     while True:

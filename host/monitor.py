@@ -5,7 +5,7 @@ operator's own software on ``vcan0``/``can0``, or another Python object on the i
 Our host node then only listens, like a CAN analyser: :class:`BusMonitor` is a
 :class:`host.client.HostClient` (same decoding of status, position, focus, heartbeat, fault and
 limit frames, same ``status.log``/``errors.log`` lines) that also decodes the frames *the
-external host* sends — ``AXIS_COMMAND``, ``FOCUS_COMMAND``, ``HOST_BROADCAST`` — into
+external host* sends — ``AXIS_COMMAND``, ``FOCUS_COMMAND``, ``STOP_ALL``, ``NMT`` — into
 ``commands.log`` and into the setpoint each command means, and counts every frame by
 identifier. It refuses to command (:meth:`BusMonitor.command_axis` and friends raise).
 """
@@ -40,11 +40,12 @@ class BusMonitor(HostClient):
     frames_by_id : dict
         Frames received per identifier (every frame but the ones this node sent itself).
     commands_seen : dict
-        External commands seen per kind (``"AXIS_COMMAND TRACK"``, ``"HOST_BROADCAST PING"``, ...).
+        External commands seen per kind (``"AXIS_COMMAND TRACK"``, ``"NMT START"``, ...).
     setpoints : dict
         ``{"ra": ..., "dec": ...}``: the rate [arcsec/s] the last external command to each axis
         means (firmware preset rates for the preset modes; ``nan`` for OPEN_LOOP, whose duty
-        has no rate; 0 after STOP, STOP_ALL or a RESET).
+        has no rate; 0 after STOP, STOP_ALL, or an NMT command that takes a node out of
+        OPERATIONAL: stop, pre-operational, reset).
     limit_frames : int
         ``LIMIT`` frames seen (reader → axis controller).
     on_frame : callable(can.Message), optional
@@ -60,7 +61,8 @@ class BusMonitor(HostClient):
         self.limit_frames = 0
         self._handlers[P.AxisCommandFrame] = self._on_AxisCommandFrame
         self._handlers[P.FocusCommandFrame] = self._on_FocusCommandFrame
-        self._handlers[P.HostBroadcast] = self._on_HostBroadcast
+        self._handlers[P.StopAll] = self._on_StopAll
+        self._handlers[P.Nmt] = self._on_Nmt
 
     def _handle(self, msg: can.Message) -> None:
         cob = msg.arbitration_id
@@ -95,14 +97,22 @@ class BusMonitor(HostClient):
     def _on_FocusCommandFrame(self, cob_id: int, f, now: int) -> None:
         self._seen(now, "focus", "FOCUS_COMMAND", P.FocusCommand(f.cmd).name, f"halfsteps={f.value}")
 
-    def _on_HostBroadcast(self, cob_id: int, f, now: int) -> None:
-        cmd = P.BroadcastCommand(f.cmd)
-        target = "all" if f.target_node == 0 else NODE_NAMES.get(f.target_node, f"node-{f.target_node}")
-        if cmd in (P.BroadcastCommand.STOP_ALL, P.BroadcastCommand.RESET):
-            for axis, node in AXIS_NODES.items():
-                if f.target_node in (0, node):
-                    self.setpoints[axis] = 0.0
-        self._seen(now, target, "HOST_BROADCAST", cmd.name, f"reset_cause={P.ResetCause(f.reset_cause).name}")
+    def _stopped(self, target_node: int) -> str:
+        for axis, node in AXIS_NODES.items():
+            if target_node in (0, node):
+                self.setpoints[axis] = 0.0
+        return "all" if target_node == 0 else NODE_NAMES.get(target_node, f"node-{target_node}")
+
+    def _on_StopAll(self, cob_id: int, f, now: int) -> None:
+        self._seen(now, self._stopped(f.target_node), "STOP_ALL", "STOP_ALL", "")
+
+    def _on_Nmt(self, cob_id: int, f, now: int) -> None:
+        cmd = P.NmtCommand(f.cmd)
+        if cmd == P.NmtCommand.START:
+            target = "all" if f.target_node == 0 else NODE_NAMES.get(f.target_node, f"node-{f.target_node}")
+        else:
+            target = self._stopped(f.target_node)
+        self._seen(now, target, "NMT", cmd.name, "")
 
     def _on_Limit(self, cob_id: int, f, now: int) -> None:
         self.limit_frames += 1
@@ -111,7 +121,7 @@ class BusMonitor(HostClient):
     # -- a passive node does not command -----------------------------------------------------
     def power_on(self):
         """Refused: the external host does the health check."""
-        raise PassiveHostError("the bus monitor is passive: the external host sends the PING")
+        raise PassiveHostError("the bus monitor is passive: the external host does the health check")
 
     def command_axis(self, *args, **kwargs) -> float:
         """Refused: the external host commands the axes."""

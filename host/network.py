@@ -161,7 +161,8 @@ class Telescope:
         for name, b in self.boards.items():
             d = {"node": b.node_id, "malformed_frames": b.malformed_frames,
                  # the host's view first: a board whose heartbeat stopped is LOST whatever it was
-                 "state": "LOST" if b.node_id in self.client.lost else _state_name(b),
+                 "state": "LOST" if b.node_id in self.client.lost else b.device.state,
+                 "emcy_sent": b.device.emcy.sent,
                  "reset_cause": b.reset_cause, "resets": b.reset_count,
                  "can": self._can_snapshot.get(name) or _can_registers(b)}
             d.update(b.report_counters())
@@ -200,13 +201,6 @@ _AXIS_BOARD = {i.axis: name for name, (s, i) in BOARDS.items() if s.kind == "axi
 def _can_registers(board) -> dict:
     """TEC, REC and error state of a board's CAN controller (as its registers show them)."""
     return {"tec": board.can.tec, "rec": board.can.rec, "error_state": board.can.error_state}
-
-
-def _state_name(board) -> str:
-    try:
-        return P.NodeState(board.state).name
-    except (ValueError, TypeError):
-        return str(board.state)
 
 
 def _make_bus(scenario: Scenario, channel: str) -> can.BusABC:

@@ -286,6 +286,18 @@ def _markdown(r: dict) -> str:
         for name, b in r["boards"].items():
             lines.append(f"| {name} | {b.get('malformed_frames', 0)} | {b.get('crc_errors', '–')} | {b.get('state', '')} |")
         lines.append("")
+        idents = {n: b for n, b in r["boards"].items() if b.get("identity")}
+        if idents:
+            lines += ["Identity and parameters read back by SDO at power-on (docs/canopen.md):", "",
+                      "| board | device name | product | revision | serial | software | parameters |",
+                      "|---|---|---:|---:|---:|---|---|"]
+            for name, b in idents.items():
+                i = b["identity"]
+                params = ", ".join(f"{p['name'].split(': ')[-1]} {p['value']}" if p.get("value") is not None
+                                   else f"{p['name'].split(': ')[-1]} –" for p in (b.get("parameters") or {}).values())
+                lines.append(f"| {name} | {i['device_name']} | {i['product_code']} | 0x{i['revision']:08X} | "
+                             f"0x{i['serial_number']:08X} | {i['software_version']} | {params} |")
+            lines.append("")
     if r.get("errors"):
         lines += ["## Errors", ""] + [f"- {e}" for e in r["errors"]] + [""]
     return "\n".join(lines)

@@ -185,7 +185,9 @@ def run_scenario(
         "plant": tel.plant_summary(),
         "gear_lines": {axis: p.gear_lines for axis, p in tel.plants.items()},  # issue 9: lines that ran
         "bus_stats": tel.bus_stats(),
-        "boards": tel.board_summary(),
+        "boards": {name: {**row, "identity": client.identities.get(name),
+                          "parameters": client.parameters.get(name)}
+                   for name, row in tel.board_summary().items()},
         "rs232": tel.rs232_summary(),
         "errors": session.errors + client.error_lines(),
         "realtime": session.clock_stats(),

@@ -99,7 +99,7 @@ class ServeSession(Session):
     -----
     Time in the logs is simulated seconds since power-on (on SocketCAN: wall-clock seconds since
     :meth:`run` started, up to the pacer's lateness). The boards boot at time 0; the monitor
-    sends no PING and no command (only an injected ``malformed_frame`` fault puts a frame of
+    sends no health check, no NMT and no command (only an injected ``malformed_frame`` fault puts a frame of
     its own on the bus).
     """
 

@@ -81,3 +81,11 @@ class ToyAxis:
 
     def qei_counts(self):
         return int(self.angle // self.arcsec_per_count)
+
+
+def nmt_start(*boards):
+    """Put each board in NMT OPERATIONAL, as the host's NMT start (``01 00`` on 0x000) does,
+    through the board's receive handler. Boards boot PRE-OPERATIONAL and act on process data
+    (commands, LIMIT, STOP_ALL) and send their periodic frames only when OPERATIONAL."""
+    for b in boards:
+        b._on_rx(can.Message(arbitration_id=0x000, data=bytes((0x01, 0x00)), is_extended_id=False))

@@ -9,6 +9,7 @@ import can
 from boards import registry as R
 from bus import protocol as P
 from bus import telemetry as T
+from bus.eds.objects import KINDS
 from host.faults import FAULT_KINDS, FAULTS
 from host.network import PORTS, build_network
 from host.scenario import Fault, parse_scenario
@@ -92,7 +93,9 @@ def test_registry_agrees_with_the_protocol():
         assert T.DEVICE_OF_NODE[int(inst.node_id)] == int(spec.device_type), name
         assert set(spec.ports) <= set(PORTS), f"{name}: no port factory for {set(spec.ports) - set(PORTS)}"
         assert spec.sends(inst.node_id), name
-        assert spec.accepts(inst.node_id)[0][0] == P.host_broadcast_cob_id()
+        accepts = [cob for cob, _ in spec.accepts(inst.node_id)]
+        assert accepts[0] == P.nmt_cob_id() and P.sdo_request_cob_id(inst.node_id) in accepts
+        assert spec.firmware.CANOPEN_KIND in KINDS, name
 
 
 def test_scenario_names_come_from_the_registry_and_the_fault_table():
@@ -110,7 +113,7 @@ def test_built_network_follows_the_registry(tmp_path):
     tel = build_network(sc)
     seen: dict[int, set] = {}
     try:
-        tel.network.add_tap(lambda m: seen.setdefault(m.arbitration_id, set()).add(m.data[0]))
+        tel.network.add_tap(lambda m: seen.setdefault(m.arbitration_id, set()).add(bytes(m.data[:1])))
         tel.client.power_on()
         tel.client.command_axis("ra", "track", 1)
         tel.scheduler.run_until(tel.scheduler.now_us + 1_500_000)
@@ -121,8 +124,10 @@ def test_built_network_follows_the_registry(tmp_path):
     for name, (spec, inst) in R.BOARDS.items():
         assert type(tel.boards[name]) is spec.firmware and tel.boards[name].node_id == inst.node_id
         sent_by_boards |= {cob for cob, _ in spec.sends(inst.node_id)}
-    board_frames = {cob for cob, dts in seen.items() if int(P.DeviceType.HOST) not in dts}
+    to_boards = {cob for spec, inst in R.BOARDS.values() for cob, _ in spec.accepts(inst.node_id)}
+    board_frames = set(seen) - (to_boards - sent_by_boards)
     assert board_frames and board_frames <= sent_by_boards
+    assert set(seen) <= sent_by_boards | to_boards       # nothing outside the registry's lists
     assert isinstance(tel.client.bus, can.BusABC)
 
 
@@ -136,6 +141,7 @@ def test_a_new_board_kind_is_one_firmware_class_and_one_registry_entry(tmp_path,
     class Minimal(Board):
         DEVICE_TYPE = int(P.DeviceType.FOCUS_CONTROLLER)
         KIND = "minimal"
+        CANOPEN_KIND = "focus_controller"        # its EDS (bus/eds/objects.py)
 
     spec = R.BoardSpec(kind="minimal", firmware=Minimal, device_type=P.DeviceType.FOCUS_CONTROLLER, ports=(),
                        instances=(R.BoardInstance("focus", P.NodeId.FOCUS),))
@@ -144,7 +150,8 @@ def test_a_new_board_kind_is_one_firmware_class_and_one_registry_entry(tmp_path,
     tel = build_network(sc)
     try:
         assert type(tel.boards["focus"]) is Minimal
-        assert tel.client.power_on().ok            # it answers the health check's PING
+        assert tel.client.power_on().ok            # it answers the health check's SDO upload
+        tel.scheduler.run_until(tel.scheduler.now_us + 1_000)     # the NMT start is delivered
         rows = tel.board_summary()
     finally:
         tel.close()

@@ -9,7 +9,7 @@ from boards.axis_controller import (PRESET_RATES_ARCSEC_S, SLEW_ARCSEC_S, AxisCo
                                     AxisMode)
 from bus import protocol as p
 from bus.scheduler import Scheduler
-from boards_fakes import FakeBus, ToyAxis
+from boards_fakes import FakeBus, ToyAxis, nmt_start
 
 CMD = p.axis_command_cob_id(1)
 
@@ -21,6 +21,7 @@ def make(node=1, rx_interrupt=True, **kw):
     ax = AxisController(s, bus, node, read_qei_counts=plant.qei_counts,
                         on_duties=plant.set_duties, **kw)
     ax.start()
+    nmt_start(ax)
     return s, bus, plant, ax
 
 
@@ -29,8 +30,8 @@ def command(bus, cmd, direction=1, value=0, node=1):
 
 
 def test_slew_rate_is_table1_motor_speed_over_gear_ratio():
-    """SLEW = 12.583 rad/s / 360.489 at the axis ≈ 2°/s (7199.8″/s)."""
-    assert SLEW_ARCSEC_S == pytest.approx(7199.8, abs=0.1)
+    """SLEW = 12.583 rad/s / 360.489 at the axis ≈ 2°/s (7199.748″/s, as documented)."""
+    assert SLEW_ARCSEC_S == pytest.approx(7199.748, abs=0.001)
     assert PRESET_RATES_ARCSEC_S[AxisMode.TRACK] == (15.0, 0.0)
 
 
@@ -114,8 +115,8 @@ def test_limit_frame_stops_axis_and_refuses_motion_toward_limit():
     flags = [p.LimitFlags.HIGH_SOFT_LIMIT]
     s.call_every(100_000, lambda now: bus.inject(p.limit_cob_id(3), limit_frame(flags[0])))
     assert ax.mode == AxisMode.LIMIT_STOP and ax.braking     # braking ramp from the measured rate
-    faults = [p.decode_fault(m.data) for m in bus.frames(p.fault_cob_id(1))]
-    assert faults[-1].code == p.FaultCode.LIMIT_STOP
+    faults = [p.decode_emcy(m.data) for m in bus.frames(p.emcy_cob_id(1))]
+    assert faults[-1].fault_code == p.FaultCode.LIMIT_STOP and faults[-1].error_code == 0x8612
     s.run_until(560_000)                                 # 600″/s at 14 400″/s² → 42 ms ramp
     assert ax.setpoint_arcsec_s == 0.0
     s.run_until(1_500_000)
@@ -124,8 +125,13 @@ def test_limit_frame_stops_axis_and_refuses_motion_toward_limit():
     assert status.mode == p.AxisMode.LIMIT_STOP and status.flags & p.AxisStatusFlags.LIMIT_STOP
     command(bus, p.AxisCommand.SLEW, +1)                 # toward the limit: refused
     assert ax.mode == AxisMode.LIMIT_STOP and ax.limit_refusals == 1
+    refused = p.decode_emcy(bus.frames(p.emcy_cob_id(1))[-1].data)
+    assert refused.fault_code == p.FaultCode.COMMAND_REFUSED and refused.detail == (4 << 8) | p.AxisCommand.SLEW
     command(bus, p.AxisCommand.GUIDE, -1)                # away: accepted
     assert ax.mode == AxisMode.GUIDE and ax.setpoint_arcsec_s == -100.0
+    s.run_until(1_505_000)                               # the limit stop has ended: error reset
+    reset = p.decode_emcy(bus.frames(p.emcy_cob_id(1))[-1].data)
+    assert reset.error_code == 0 and reset.detail == 0x8612 and reset.fault_code == p.FaultCode.LIMIT_STOP
     flags[0] = 0
     bus.inject(p.limit_cob_id(3), limit_frame(0))        # limit left: nothing else changes
     assert ax.mode == AxisMode.GUIDE
@@ -150,17 +156,18 @@ def test_limit_from_the_other_axis_reader_is_filtered_out():
 
 
 @settings(max_examples=300, suppress_health_check=[HealthCheck.too_slow])
-@given(arb=st.sampled_from([CMD, p.limit_cob_id(3), 0x000]),
+@given(arb=st.sampled_from([CMD, p.limit_cob_id(3), p.stop_all_cob_id()]),
        data=st.binary(min_size=0, max_size=8), rtr=st.booleans())
 def test_malformed_frames_are_counted_and_never_raise(arb, data, rtr):
-    """Random payload/DLC on an accepted id: decoded or counted + FAULT(1), never an exception."""
+    """Random payload/DLC on an accepted id: decoded or counted + EMCY MALFORMED_FRAME, never an
+    exception."""
     s, bus, plant, ax = make()
     before = ax.malformed_frames
     try:
         if arb == CMD:
             p.decode_axis_command(data)
-        elif arb == 0x000:
-            p.decode_host_broadcast(data)
+        elif arb == p.stop_all_cob_id():
+            p.decode_stop_all(data)
         else:
             p.decode_limit(data)
             if data[1] != 0:
@@ -174,39 +181,48 @@ def test_malformed_frames_are_counted_and_never_raise(arb, data, rtr):
         assert ax.malformed_frames == before
     else:
         assert ax.malformed_frames == before + 1
-        f = p.decode_fault(bus.frames(p.fault_cob_id(1))[-1].data)
-        assert f.code == p.FaultCode.MALFORMED_FRAME and f.detail == arb
-        assert f.malformed_frames == ax.malformed_frames
+        f = p.decode_emcy(bus.frames(p.emcy_cob_id(1))[-1].data)
+        assert f.fault_code == p.FaultCode.MALFORMED_FRAME and f.detail == arb
+        assert f.error_code == 0x8200 and f.count == ax.malformed_frames
 
 
-def test_heartbeat_every_second_and_on_ping():
-    """HEARTBEAT at boot (BOOT), then every 1 s (OPERATIONAL), and in answer to PING."""
+def test_heartbeat_every_second_and_sdo_answers_the_health_check():
+    """CiA heartbeat: boot-up ``00`` at boot, then the NMT state (OPERATIONAL after the start)
+    every 1 s (0x1017); an SDO upload of 0x1000 on 0x601 is answered on 0x581, one to another
+    node is not (acceptance filter)."""
     s, bus, plant, ax = make()
     s.run_until(3_000_000)
     hb = [p.decode_heartbeat(m.data) for m in bus.frames(p.heartbeat_cob_id(1))]
-    assert [h.state for h in hb] == [0, 1, 1, 1]
-    assert [h.uptime_s for h in hb] == [0, 1, 2, 3]
-    bus.inject(0x000, p.encode_host_broadcast(p.BroadcastCommand.PING, 0))
-    assert len(bus.frames(p.heartbeat_cob_id(1))) == 5
-    bus.inject(0x000, p.encode_host_broadcast(p.BroadcastCommand.PING, 2))   # other node
-    assert len(bus.frames(p.heartbeat_cob_id(1))) == 5
+    assert [h.state for h in hb] == [p.NodeState.BOOT] + [p.NodeState.OPERATIONAL] * 3
+    upload = bytes((0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0))
+    bus.inject(p.sdo_request_cob_id(1), upload)
+    (answer,) = bus.frames(p.sdo_response_cob_id(1))
+    assert answer.data[:4] == bytes((0x43, 0x00, 0x10, 0x00))
+    assert int.from_bytes(answer.data[4:], "little") == p.DeviceType.AXIS_CONTROLLER << 16
+    bus.inject(p.sdo_request_cob_id(2), upload)                     # other node
+    assert len(bus.frames(p.sdo_response_cob_id(1))) == 1 and not bus.frames(p.sdo_response_cob_id(2))
 
 
 def test_reset_restores_power_on_state_keeps_cause():
-    """RESET broadcast: mode STOP, U 0, counters cleared; reset cause and count survive; reboots."""
+    """NMT reset node: mode STOP, U 0, counters cleared; reset cause SOFTWARE and the count
+    survive; reboots into PRE-OPERATIONAL (commands ignored until NMT start)."""
     s, bus, plant, ax = make()
     command(bus, p.AxisCommand.SET, +1)
     bus.inject(CMD, b"\x10\x63")                         # malformed
     s.run_until(500_000)
     assert ax.malformed_frames == 1 and ax.u != 0
-    bus.inject(0x000, p.encode_host_broadcast(p.BroadcastCommand.RESET, 1, p.ResetCause.WATCHDOG))
+    bus.inject(p.nmt_cob_id(), p.encode_nmt(p.NmtCommand.RESET_NODE, 1))
     assert ax.mode == AxisMode.STOP and ax.u == 0 and ax.malformed_frames == 0
-    assert ax.reset_cause == "watchdog" and ax.reset_count == 1 and ax.duties == (0.0, 0.0)
+    assert ax.reset_cause == "software" and ax.reset_count == 1 and ax.duties == (0.0, 0.0)
     hb = p.decode_heartbeat(bus.frames(p.heartbeat_cob_id(1))[-1].data)
-    assert hb.state == p.NodeState.BOOT and hb.reset_cause == p.ResetCause.WATCHDOG
-    assert p.decode_fault(bus.frames(p.fault_cob_id(1))[-1].data).code == p.FaultCode.WATCHDOG
+    assert hb.state == p.NodeState.BOOT and ax.device.state == "PRE-OPERATIONAL"
+    command(bus, p.AxisCommand.SET, +1)
+    assert ax.mode == AxisMode.STOP and ax.device.rpdos_ignored == 1
     s.run_until(1_000_000)
     assert ax.timer.ticks == 100                       # ISR rescheduled after the reboot
+    ax.reset("watchdog")                               # e.g. the injected watchdog fault
+    emcy = p.decode_emcy(bus.frames(p.emcy_cob_id(1))[-1].data)
+    assert emcy.fault_code == p.FaultCode.WATCHDOG and emcy.detail == 2 and ax.reset_count == 2
 
 
 def test_polling_without_rx_interrupt_keeps_two_frames_per_poll():
@@ -226,12 +242,14 @@ def test_overcurrent_is_flagged_not_tripped_by_default():
     ax = AxisController(s, bus, 1, read_qei_counts=plant.qei_counts, on_duties=plant.set_duties,
                         shunt_a_v=lambda: 0.7, shunt_b_v=lambda: 0.1)
     ax.start()
+    nmt_start(ax)
     command(bus, p.AxisCommand.SET, +1)
     s.run_until(20_000)
     assert ax.overcurrent and not ax.tripped and ax.mode == AxisMode.SET
     assert ax.adc_a == int(0.7 / 5 * 1024)
     assert p.decode_axis_status(bus.frames(p.axis_status_cob_id(1))[-1].data).flags & 4
-    assert p.decode_fault(bus.frames(p.fault_cob_id(1))[-1].data).code == p.FaultCode.OVER_CURRENT
+    emcy = [p.decode_emcy(m.data) for m in bus.frames(p.emcy_cob_id(1))]
+    assert [e.fault_code for e in emcy] == [p.FaultCode.OVER_CURRENT]     # one EMCY, not one per tick
 
 
 def test_unknown_drive_law_is_rejected_at_construction():

@@ -9,7 +9,7 @@ from boards.endat import (CRC_POLY, EnDatMaster, build_position_frame, build_pos
 from boards.position_reader import ARCSEC_PER_COUNT, PositionReader
 from bus import protocol as p
 from bus.scheduler import Scheduler
-from boards_fakes import FakeBus
+from boards_fakes import FakeBus, nmt_start
 
 positions = st.integers(0, (1 << 29) - 1)
 
@@ -108,6 +108,7 @@ def make_reader(word, **kw):
     bus = FakeBus()
     r = PositionReader(s, bus, 3, read_position_word=lambda: word[0], **kw)
     r.start()
+    nmt_start(r)
     return s, bus, r
 
 
@@ -125,7 +126,8 @@ def test_position_published_every_10_ms_with_offset():
 
 
 def test_crc_error_keeps_last_good_position_and_flags_it():
-    """A corrupted read is counted, not used, flagged (bit2) and reported with FAULT(2)."""
+    """A corrupted read is counted, not used, flagged (bit2) and reported with EMCY ENDAT_CRC,
+    cleared (EMCY error reset) by the next good read."""
     word = [5000]
     s, bus, r = make_reader(word)
     s.run_until(10_000)
@@ -134,11 +136,14 @@ def test_crc_error_keeps_last_good_position_and_flags_it():
     s.run_until(20_000)
     pos = p.decode_position(bus.frames(p.position_cob_id(3))[-1].data)
     assert pos.pos_counts == 5000 and pos.flags & p.PositionFlags.CRC_ERROR and pos.crc_errors == 1
-    fault = p.decode_fault(bus.frames(p.fault_cob_id(3))[-1].data)
-    assert fault.code == p.FaultCode.ENDAT_CRC and fault.crc_errors == 1
+    fault = p.decode_emcy(bus.frames(p.emcy_cob_id(3))[-1].data)
+    assert fault.fault_code == p.FaultCode.ENDAT_CRC and fault.error_code == 0x7300
+    assert fault.detail == r.endat.reads and fault.error_register & 0x81 == 0x81
     s.run_until(30_000)
     pos = p.decode_position(bus.frames(p.position_cob_id(3))[-1].data)
     assert pos.pos_counts == 6000 and pos.flags == 0
+    reset = p.decode_emcy(bus.frames(p.emcy_cob_id(3))[-1].data)
+    assert reset.error_code == 0 and reset.detail == 0x7300 and reset.error_register == 0
 
 
 def test_limit_frames_on_change_and_every_100_ms_while_active():
@@ -181,6 +186,7 @@ def test_reader_limit_frame_drives_axis_controller():
     r = PositionReader(s, bus_r, 3, read_position_word=lambda: word[0])
     ax = AxisController(s, bus_a, 1, read_qei_counts=lambda: 0)
     r.start(); ax.start()
+    nmt_start(r, ax)
     bus_a.inject(p.axis_command_cob_id(1), p.encode_axis_command(p.AxisCommand.SLEW, 1))
     s.run_until(10_000)
     for m in bus_r.frames(p.limit_cob_id(3)):

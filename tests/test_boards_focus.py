@@ -3,7 +3,7 @@
 from bus import protocol as p
 from bus.scheduler import Scheduler
 from boards.focus_controller import FocusController
-from boards_fakes import FakeBus
+from boards_fakes import FakeBus, nmt_start
 
 
 def make(**kw):
@@ -13,6 +13,7 @@ def make(**kw):
     f = FocusController(s, bus, 5, on_step=steps.append, read_lvdt_v=lambda: 2.5,
                         on_power=power.append, **kw)
     f.start()
+    nmt_start(f)
     return s, bus, f, steps, power
 
 
@@ -40,8 +41,8 @@ def test_move_to_is_absolute_and_refused_outside_travel():
     cmd(bus, p.FocusCommand.STEP, -1)
     s.run_until(4_000_000)
     assert f.pos_halfsteps == f.target_halfsteps == -800 and len(steps) == 800
-    faults = [p.decode_fault(m.data) for m in bus.frames(p.fault_cob_id(5))]
-    assert [(x.code, x.detail) for x in faults] == [
+    faults = [p.decode_emcy(m.data) for m in bus.frames(p.emcy_cob_id(5))]
+    assert [(x.fault_code, x.detail) for x in faults] == [
         (p.FaultCode.COMMAND_REFUSED, 6 << 8 | p.FocusCommand.MOVE_TO),
         (p.FaultCode.COMMAND_REFUSED, 6 << 8 | p.FocusCommand.STEP)]
 
@@ -79,6 +80,7 @@ def test_index_pulse_latched_until_reported():
     f = FocusController(s, bus, 5, on_step=lambda d: level.update(v=(f.pos_halfsteps + d) == 50),
                         read_index=lambda: level["v"])
     f.start()
+    nmt_start(f)
     cmd(bus, p.FocusCommand.STEP, 100)
     s.run_until(500_000)
     st = [p.decode_focus_status(m.data) for m in bus.frames(p.focus_status_cob_id())]
@@ -86,11 +88,11 @@ def test_index_pulse_latched_until_reported():
 
 
 def test_malformed_focus_command_counted():
-    """Unknown FOCUS_COMMAND cmd → malformed_frames + FAULT(1)."""
+    """Unknown FOCUS_COMMAND cmd → malformed_frames + EMCY MALFORMED_FRAME."""
     s, bus, f, steps, _ = make()
     bus.inject(p.focus_command_cob_id(), bytes([0x10, 9, 0, 0, 0, 0, 0, 0]))
     assert f.malformed_frames == 1
-    assert p.decode_fault(bus.frames(p.fault_cob_id(5))[-1].data).code == p.FaultCode.MALFORMED_FRAME
+    assert p.decode_emcy(bus.frames(p.emcy_cob_id(5))[-1].data).fault_code == p.FaultCode.MALFORMED_FRAME
 
 
 def make_with_encoder(lose=0):
@@ -109,6 +111,7 @@ def make_with_encoder(lose=0):
 
     f = FocusController(s, bus, 5, on_step=on_step, read_encoder_counts=lambda: st["enc"])
     f.start()
+    nmt_start(f)
     return s, bus, f, st
 
 
@@ -135,8 +138,8 @@ def test_missed_steps_detected_counted_and_reported():
     sts = [p.decode_focus_status(m.data) for m in bus.frames(p.focus_status_cob_id())]
     flagged = [bool(x.flags & p.FocusFlags.STEP_LOSS) for x in sts]
     assert flagged == [True, False, False]
-    faults = [p.decode_fault(m.data) for m in bus.frames(p.fault_cob_id(5))]
-    assert [x.code for x in faults] == [p.FaultCode.STEP_LOSS]
+    faults = [p.decode_emcy(m.data) for m in bus.frames(p.emcy_cob_id(5))]
+    assert [x.fault_code for x in faults] == [p.FaultCode.STEP_LOSS]
     assert 1 <= faults[0].detail <= 7        # sent at the first detection, while steps were lost
 
 

@@ -6,6 +6,7 @@ anything the firmware reports.
 """
 
 import math
+from typing import NamedTuple
 
 import can
 import pytest
@@ -16,7 +17,7 @@ from boards.safety import RECOMMENDED_HOST_WATCHDOG_US, SafetyLimits
 from bus import protocol as p
 from bus.scheduler import Scheduler
 from bus.simbus import SimBus
-from boards_fakes import FakeBus, ToyAxis
+from boards_fakes import FakeBus, ToyAxis, nmt_start
 from host.network import build_network
 from host.scenario import parse_scenario
 
@@ -27,6 +28,7 @@ def make(**kw):
     plant = ToyAxis(s)
     ax = AxisController(s, bus, 1, read_qei_counts=plant.qei_counts, on_duties=plant.set_duties, **kw)
     ax.start()
+    nmt_start(ax)
     return s, bus, plant, ax
 
 
@@ -34,8 +36,20 @@ def command(bus, cmd, direction=1, value=0):
     bus.inject(p.axis_command_cob_id(1), p.encode_axis_command(cmd, direction, value))
 
 
+class Fault(NamedTuple):
+    code: int
+    detail: int
+
+
 def faults(bus, node=1):
-    return [p.decode_fault(m.data) for m in bus.frames(p.fault_cob_id(node))]
+    """The EMCY frames of ``node`` as (fault code, detail); an EMCY error reset (error code 0) is
+    (FAULT_CLEARED, the cleared fault code), as issue 11's FAULT_CLEARED frame was."""
+    out = []
+    for m in bus.frames(p.emcy_cob_id(node)):
+        e = p.decode_emcy(m.data)
+        out.append(Fault(p.FaultCode.FAULT_CLEARED, e.fault_code) if e.error_code == 0
+                   else Fault(e.fault_code, e.detail))
+    return out
 
 
 # ------------------------------------------------------------------ defect 1: gains without bounds
@@ -76,7 +90,7 @@ def test_stop_all_from_slew_is_reached_at_any_gain_in_the_band(scale_kp, scale_k
     s, bus, plant, ax = make(kp=DEFAULT_KP * scale_kp, ki=DEFAULT_KI * scale_ki)
     command(bus, p.AxisCommand.SLEW)
     s.run_until(2_000_000)
-    bus.inject(p.host_broadcast_cob_id(), p.encode_host_broadcast(p.BroadcastCommand.STOP_ALL, 0, 0))
+    bus.inject(p.stop_all_cob_id(), p.encode_stop_all())
     s.run_until(3_000_000)
     assert abs(plant.omega) < 50.0
 
@@ -127,7 +141,7 @@ def test_host_heartbeats_keep_the_watchdog_quiet():
     """A host HEARTBEAT (0x710) every second keeps a slewing axis going."""
     s, bus, plant, ax = make(safety=SafetyLimits(host_watchdog_us=2_000_000))
     command(bus, p.AxisCommand.SLEW)
-    hb = p.encode_heartbeat(p.DeviceType.HOST, 1, 0, 0, 0)
+    hb = p.encode_heartbeat(p.NodeState.OPERATIONAL)
     s.call_every(1_000_000, lambda now: bus.inject(p.heartbeat_cob_id(0x10), hb))
     s.run_until(6_000_000)
     assert ax.mode == AxisMode.SLEW and not any(f.code == p.FaultCode.HOST_TIMEOUT for f in faults(bus))
@@ -143,6 +157,7 @@ def test_over_current_is_reported_once_then_cleared_not_repeated():
     ax = AxisController(s, bus, 1, read_qei_counts=plant.qei_counts, on_duties=plant.set_duties,
                         shunt_a_v=lambda: amps[0] * 0.1)
     ax.start()
+    nmt_start(ax)
     s.call_every(5_000, lambda now: amps.__setitem__(0, 6.5 if (now // 5_000) % 2 else 5.0)
                  if now < 3_000_000 else amps.__setitem__(0, 1.0), priority=0)
     s.run_until(5_000_000)
@@ -165,6 +180,7 @@ def make_focus_with_two_stalls():
 
     f = FocusController(s, bus, 5, on_step=on_step, read_encoder_counts=lambda: st["enc"])
     f.start()
+    nmt_start(f)
     return s, bus, f
 
 
@@ -193,6 +209,8 @@ def telescope_at(angle_deg):
     tel = build_network(parse_scenario(SCENARIO, "safety.yaml"))
     tel.plants["ra"].reset(math.radians(angle_deg))
     host = SimBus(network=tel.network, name="test-host")
+    host.send(can.Message(arbitration_id=p.nmt_cob_id(), is_extended_id=False,
+                          data=p.encode_nmt(p.NmtCommand.START)))     # boards boot PRE-OPERATIONAL
     return tel, host
 
 

@@ -37,6 +37,9 @@ def test_host_commands_axis_and_reader_limit_stops_it(net):
     host = SimBus(network=n)
     for b in (ax, rd, fc):
         b.start()
+    host.send(can.Message(arbitration_id=p.nmt_cob_id(), data=p.encode_nmt(p.NmtCommand.START),
+                          is_extended_id=False))          # the boards boot PRE-OPERATIONAL
+    s.run_until(1_000)
     host.send(can.Message(arbitration_id=p.axis_command_cob_id(1),
                           data=p.encode_axis_command(p.AxisCommand.SLEW, 1), is_extended_id=False))
     s.run_until(3_000_000)
@@ -47,5 +50,6 @@ def test_host_commands_axis_and_reader_limit_stops_it(net):
     ids = set()
     while (m := host.recv()) is not None:
         ids.add(m.arbitration_id)
-    assert {0x073, 0x081, 0x181, 0x183, 0x185, 0x281, 0x701, 0x703, 0x705} <= ids
+    assert {0x283, 0x081, 0x181, 0x183, 0x185, 0x281, 0x701, 0x703, 0x705} <= ids
+    assert 0x073 not in ids                   # LIMIT moved off the restricted 0x001-0x07F
     assert ax.malformed_frames == rd.malformed_frames == fc.malformed_frames == 0

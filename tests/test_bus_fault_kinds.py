@@ -21,6 +21,8 @@ segments:
 @pytest.fixture
 def tel():
     t = build_network(parse_scenario(SCENARIO, "kinds.yaml"))
+    t.client.send_nmt(p.NmtCommand.START)          # boards boot PRE-OPERATIONAL
+    t.scheduler.run_until(1_000)
     yield t
     t.close()
 
@@ -50,8 +52,8 @@ def test_host_loss_hides_host_frames_from_every_board(tel):
     """host_loss: a STOP_ALL the host sends reaches no board."""
     apply_fault(tel, "host_loss", 0)
     tel.client.bus.send(__import__("can").Message(
-        arbitration_id=p.host_broadcast_cob_id(), is_extended_id=False,
-        data=p.encode_host_broadcast(p.BroadcastCommand.PING, 0, 0)))
+        arbitration_id=p.stop_all_cob_id(), is_extended_id=False,
+        data=p.encode_stop_all()))
     tel.scheduler.run_until(10_000)
     lost = [tel.network.error_state(b.can.bus).frames_lost for b in tel.boards.values()]
     assert lost == [1] * 5

@@ -143,12 +143,18 @@ def test_emcy_codes_cover_every_project_fault_code():
 
 
 def test_pdo_frames_are_frames_of_bus_protocol():
-    """Each PDO carries a frame of the one frame table (STOP_ALL = HOST_BROADCAST's fields)."""
+    """Each PDO carries a frame of the one frame table, on the identifier bus/protocol.py (and
+    so the DBC) gives it: the wiring follows the COB-ID plan."""
+    from bus.eds.objects import protocol_cob_id
     for f in PDO_FRAMES:
-        assert f in proto.FRAMES or f == "STOP_ALL"
+        assert f in proto.FRAMES
     for k in KINDS.values():
         for p in k.tpdos + k.rpdos:
             assert p.frame in PDO_FRAMES
+            for n in k.nodes:
+                cob = p.cob_id_for(n)
+                assert protocol_cob_id(p.frame, cob) == cob
+                assert proto.frame_kind(cob) == p.frame
 
 
 def test_docs_canopen_tables_are_the_generated_ones():

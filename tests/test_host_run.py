@@ -89,7 +89,7 @@ def test_every_frame_decodes_with_cantools(tracking):
         n += 1
     assert n > 40_000
     assert {"AXIS_STATUS", "AXIS_AUX", "POSITION", "FOCUS_STATUS", "HEARTBEAT", "AXIS_COMMAND",
-            "HOST_BROADCAST"} <= seen
+            "NMT", "SDO_REQUEST", "SDO_RESPONSE"} <= seen
 
 
 def test_same_seed_gives_identical_logs(tmp_path):

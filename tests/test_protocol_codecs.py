@@ -9,10 +9,11 @@ from bus.errors import ConfigurationError, EncodeError, MalformedFrame
 
 
 def test_cob_ids_match_architecture_table():
-    """COB-IDs are function code + node id as in docs/architecture.md."""
-    assert p.host_broadcast_cob_id() == 0x000
-    assert (p.limit_cob_id(3), p.limit_cob_id(4)) == (0x073, 0x074)
-    assert [p.fault_cob_id(n) for n in range(1, 6)] == [0x081, 0x082, 0x083, 0x084, 0x085]
+    """COB-IDs are function code + node id as in docs/protocol.md (CANopen pre-defined set)."""
+    assert p.nmt_cob_id() == 0x000 and p.stop_all_cob_id() == 0x190
+    assert (p.limit_cob_id(3), p.limit_cob_id(4)) == (0x283, 0x284)
+    assert [p.emcy_cob_id(n) for n in range(1, 6)] == [0x081, 0x082, 0x083, 0x084, 0x085]
+    assert (p.sdo_request_cob_id(5), p.sdo_response_cob_id(1)) == (0x605, 0x581)
     assert (p.axis_status_cob_id(1), p.axis_status_cob_id(2)) == (0x181, 0x182)
     assert (p.position_cob_id(3), p.position_cob_id(4)) == (0x183, 0x184)
     assert p.focus_status_cob_id() == 0x185
@@ -34,8 +35,8 @@ def test_frame_names():
     """frame_name gives the DBC message name, and a stable name for unknown ids."""
     assert p.frame_name(0x181) == "AXIS_STATUS_RA"
     assert p.frame_name(0x184) == "POSITION_DEC"
-    assert p.frame_name(0x083) == "FAULT_RA_READER"
-    assert p.frame_name(0x000) == "HOST_BROADCAST"
+    assert p.frame_name(0x083) == "EMCY_RA_READER"
+    assert p.frame_name(0x000) == "NMT" and p.frame_name(0x190) == "STOP_ALL"
     assert p.frame_name(0x123) == "UNKNOWN_0x123"
 
 
@@ -48,11 +49,11 @@ def test_axis_status_layout():
 
 def test_layouts_of_every_frame():
     """Each frame's bytes follow the architecture table."""
-    assert p.encode_host_broadcast(p.BroadcastCommand.RESET, 3, p.ResetCause.SOFTWARE) == \
-        bytes([0x10, 2, 3, 2, 0, 0, 0, 0])
+    assert p.encode_stop_all(target_node=3) == bytes([0x10, 3, 3, 0, 0, 0, 0, 0])
+    assert p.encode_nmt(p.NmtCommand.RESET_NODE, 0) == bytes([0x81, 0])
     assert p.encode_limit(p.Axis.DEC, 0b101, 0x1ABCDEF0) == bytes([2, 1, 5, 0, 0xF0, 0xDE, 0xBC, 0x1A])
-    assert p.encode_fault(p.DeviceType.POSITION_READER, p.FaultCode.ENDAT_CRC, 1, 0x203, 7) == \
-        bytes([2, 2, 1, 0, 3, 2, 7, 0])
+    assert p.encode_emcy(0x7300, 0x81, p.FaultCode.ENDAT_CRC, 0x203, 7) == \
+        bytes([0x00, 0x73, 0x81, 2, 3, 2, 7, 0])
     assert p.encode_position(0b1000, 0x0102, 5) == bytes([2, 8, 2, 1, 5, 0, 0, 0])
     assert p.encode_focus_status(1, 1023, -1, 0x12345) == bytes([3, 1, 0xFF, 3, 0xFF, 0xFF, 0x45, 0x23])
     assert p.decode_focus_status(p.encode_focus_status(0x10, 0, -40_000, -1)) == (0x10, 0, -32768, 0xFFFF)
@@ -61,8 +62,8 @@ def test_layouts_of_every_frame():
         bytes([0x10, 6, 0xFF, 0]) + (15_041).to_bytes(4, "little")
     assert p.encode_focus_command(p.FocusCommand.MOVE_TO, 1000) == \
         bytes([0x10, 2, 0, 0]) + (1000).to_bytes(4, "little")
-    assert p.encode_heartbeat(p.DeviceType.FOCUS_CONTROLLER, p.NodeState.OPERATIONAL,
-                              p.ResetCause.WATCHDOG, 2, 61) == bytes([3, 1, 1, 0, 2, 0, 61, 0])
+    assert p.encode_heartbeat(p.NodeState.OPERATIONAL) == bytes([5])
+    assert p.encode_heartbeat(p.NodeState.PRE_OPERATIONAL) == bytes([127])
 
 
 def test_encoders_saturate_quantities_and_wrap_counters():
@@ -71,7 +72,7 @@ def test_encoders_saturate_quantities_and_wrap_counters():
     assert p.decode_axis_status(p.encode_axis_status(0, 0, -99_999, 1 << 24)).u_q15 == -32767
     assert p.decode_axis_aux(p.encode_axis_aux(256, 2000, -5, 40_000)) == (0, 1023, 0, 32767)
     assert p.decode_position(p.encode_position(0, 70_000, (1 << 29) + 5)) == (0, 65535, 5)
-    assert p.decode_heartbeat(p.encode_heartbeat(1, 1, 0, 1 << 20, 65_537)).uptime_s == 1
+    assert p.decode_emcy(p.encode_emcy(0x2300, 3, 3, 1 << 20, 70_000))[3:] == (0xFFFF, 0xFFFF)
     assert p.decode_axis_command(p.encode_axis_command(6, 1, 1 << 40)).value == (1 << 31) - 1
 
 
@@ -82,10 +83,11 @@ def test_encoders_saturate_quantities_and_wrap_counters():
     lambda: p.encode_axis_command(10, 1, 0),
     lambda: p.encode_axis_command(6, 2, 0),
     lambda: p.encode_focus_command(5, 0),
-    lambda: p.encode_host_broadcast(0),
-    lambda: p.encode_fault(p.DeviceType.HOST, 1),
-    lambda: p.encode_fault(1, 0),
-    lambda: p.encode_heartbeat(7, 0, 0),
+    lambda: p.encode_stop_all(0, 1),
+    lambda: p.encode_nmt(3, 0),
+    lambda: p.encode_emcy(0x10000, 0, 1),
+    lambda: p.encode_emcy(0x1000, 0, 13),
+    lambda: p.encode_heartbeat(1),
     lambda: p.encode_limit(2, 0, 0),
 ])
 def test_encoders_refuse_invalid_enums_flags_and_non_integers(call):
@@ -118,19 +120,24 @@ def test_enum_out_of_range_is_malformed():
     cases = [(p.decode_axis_status, 1, 1, 9, "mode"),
              (p.decode_axis_command, 0x10, 1, 10, "cmd"),
              (p.decode_focus_command, 0x10, 1, 5, "cmd"),
-             (p.decode_heartbeat, 1, 1, 4, "state"),
-             (p.decode_fault, 1, 1, 0, "code"),
+             (p.decode_emcy, 0, 3, 13, "fault_code"),
              (p.decode_limit, 2, 1, 2, "axis"),
-             (p.decode_host_broadcast, 0x10, 1, 4, "cmd")]
+             (p.decode_stop_all, 0x10, 1, 4, "cmd")]
     for decoder, dt, index, value, field in cases:
         data = bytearray(8)
         data[0] = dt
         data[index] = value
-        if decoder is p.decode_host_broadcast:
-            data[3] = 0
         with pytest.raises(MalformedFrame) as info:
             decoder(bytes(data))
         assert info.value.field == field, decoder
+    for data, field in ((bytes([1]), "state"), (bytes([5, 0]), "dlc")):
+        with pytest.raises(MalformedFrame) as info:
+            p.decode_heartbeat(data)
+        assert info.value.field == field
+    for data, field in ((bytes([3, 0]), "cmd"), (bytes([1, 200]), "target_node"), (b"\x01", "dlc")):
+        with pytest.raises(MalformedFrame) as info:
+            p.decode_nmt(data)
+        assert info.value.field == field
 
 
 def test_narrow_fields_out_of_range_are_malformed():
@@ -142,15 +149,15 @@ def test_narrow_fields_out_of_range_are_malformed():
 
 
 def test_decode_dispatch_and_sender_device_type():
-    """decode(cob_id, data) picks the codec; FAULT/HEARTBEAT byte 0 must match the sending node."""
-    hb = p.encode_heartbeat(p.DeviceType.AXIS_CONTROLLER, 1, 0, 0, 5)
-    assert p.decode(p.heartbeat_cob_id(1), hb).uptime_s == 5
-    with pytest.raises(MalformedFrame, match="device_type"):
-        p.decode(p.heartbeat_cob_id(3), hb)
+    """decode(cob_id, data) picks the codec by identifier."""
+    hb = p.encode_heartbeat(p.NodeState.OPERATIONAL)
+    assert p.decode(p.heartbeat_cob_id(1), hb).state == p.NodeState.OPERATIONAL
+    with pytest.raises(MalformedFrame, match="dlc"):
+        p.decode(p.heartbeat_cob_id(3), hb + b"\x00")
     with pytest.raises(MalformedFrame, match="cob_id"):
         p.decode(0x7FF, hb)
     assert "HEARTBEAT_RA_AXIS" in p.format_frame(0x701, hb)
-    assert "MALFORMED" in p.format_frame(0x701, b"\x00")
+    assert "MALFORMED" in p.format_frame(0x701, b"\x01")
 
 
 @given(st.binary(min_size=0, max_size=9), st.sampled_from(sorted(p.COB_TABLE)))

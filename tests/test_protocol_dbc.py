@@ -51,7 +51,9 @@ def test_dbc_message_set_equals_protocol_frame_set():
     """The DBC has exactly one message per protocol COB-ID, named as frame_name() says."""
     assert {m.frame_id: m.name for m in DB.messages} == {
         cob: p.frame_name(cob) for cob in p.COB_TABLE}
-    assert all(m.length == 8 and not m.is_extended_frame for m in DB.messages)
+    assert all(m.length == p.COB_TABLE[m.frame_id][1].dlc and not m.is_extended_frame
+               for m in DB.messages)
+    assert {m.length for m in DB.messages} == {1, 2, 8}      # heartbeat, NMT, the rest
 
 
 def test_dbc_file_is_generated_from_frame_table():
@@ -76,7 +78,7 @@ def test_our_encoding_decodes_identically_with_cantools(cob_frame):
     """Bytes from our encoder decode with cantools to the same raw field values."""
     cob, frame = cob_frame
     data = encode_ours(cob, frame)
-    assert len(data) == 8
+    assert len(data) == p.COB_TABLE[cob][1].dlc
     got = DB.decode_message(cob, data, decode_choices=False, scaling=False)
     assert got == to_signals(cob, frame)
 
@@ -89,3 +91,20 @@ def test_cantools_encoding_decodes_identically_with_ours(cob_frame):
     data = DB.encode_message(cob, to_signals(cob, frame), scaling=False, strict=False)
     assert p.decode(cob, data) == frame
     assert encode_ours(cob, frame) == data
+
+
+def test_dbc_fixes_the_device_type_byte_and_the_firmware_value_ranges():
+    """Byte 0 has the one value the sender puts there; AXIS_COMMAND values have the firmware's
+    accepted ranges (OPEN_LOOP |duty| <= 1, gains >= 0)."""
+    for cob, (name, spec, node) in p.COB_TABLE.items():
+        msg = DB.get_message_by_frame_id(cob)
+        if spec.device_type_byte:
+            sig = msg.get_signal_by_name("device_type")
+            dt = p.DeviceType.HOST if spec.sender == "host" else p.DEVICE_TYPE_OF_NODE[node]
+            assert (sig.minimum, sig.maximum) == (int(dt), int(dt)), name
+        else:
+            assert "device_type" not in [s.name for s in msg.signals], name
+    cmd = DB.get_message_by_frame_id(p.axis_command_cob_id(1))
+    assert (cmd.get_signal_by_name("open_loop_duty").minimum,
+            cmd.get_signal_by_name("open_loop_duty").maximum) == (-1, 1)
+    assert cmd.get_signal_by_name("kp").minimum == 0 and cmd.get_signal_by_name("ki").minimum == 0

@@ -39,8 +39,13 @@ def _drain(bus: can.BusABC) -> list[can.Message]:
     return out
 
 
-def _ping() -> can.Message:
-    return _msg(P.host_broadcast_cob_id(), P.encode_host_broadcast(P.BroadcastCommand.PING, 0, P.ResetCause.POWER_ON))
+def _pings() -> list[can.Message]:
+    """The health check of docs/protocol.md: an SDO upload of 0x1000 to every board."""
+    return [_msg(P.sdo_request_cob_id(n), P.encode_sdo(0x40, 0x1000, 0)) for n in P.BOARD_NODES]
+
+
+def _nmt_start() -> can.Message:
+    return _msg(P.nmt_cob_id(), P.encode_nmt(P.NmtCommand.START))
 
 
 def _track_ra() -> can.Message:
@@ -66,25 +71,33 @@ def scenario():
 
 
 def test_external_python_host_on_the_in_process_bus(scenario):
-    """A second python-can Bus on build_network's channel is a host: its PING gets all five
-    heartbeats, its TRACK makes RA track 15″/s (report bounds: mean within 0.2″/s, 100 ms peak
+    """A second python-can Bus on build_network's channel is a host: its SDO uploads of 0x1000
+    get all five answers (the device type), NMT start makes the boards OPERATIONAL (heartbeat
+    state 5), its TRACK makes RA track 15″/s (report bounds: mean within 0.2″/s, 100 ms peak
     error < 25 %), and AXIS_COMMANDs with a wrong DLC or device type are counted as malformed by
-    the axis board (answered by FAULT frames), which keeps tracking."""
+    the axis board (answered by EMCY frames), which keeps tracking."""
     tel = build_network(scenario)
     ext = can.Bus(interface="schmidt-sim", channel=tel.network.channel)
     sched = tel.scheduler
     try:
-        sched.run_until(300_000)                         # boards booted (heartbeats at 0 s)
+        sched.run_until(300_000)                         # boards booted (boot-up at 0 s)
         _drain(ext)
-        ext.send(_ping())
+        for m in _pings():
+            ext.send(m)
         t_ping_s = sched.now_us / 1e6
         sched.run_until(sched.now_us + 10_000)
-        beats = {P.node_of(m.arbitration_id): m for m in _drain(ext)
-                 if P.frame_kind(m.arbitration_id) == "HEARTBEAT"}
-        assert sorted(beats) == sorted(P.BOARD_NODES)
-        for node, m in beats.items():
-            hb = P.decode(m.arbitration_id, bytes(m.data))
-            assert hb.state == P.NodeState.OPERATIONAL and t_ping_s < m.timestamp < t_ping_s + 0.002, (node, m)
+        answers = {P.node_of(m.arbitration_id): m for m in _drain(ext)
+                   if P.frame_kind(m.arbitration_id) == "SDO_RESPONSE"}
+        assert sorted(answers) == sorted(P.BOARD_NODES)
+        for node, m in answers.items():
+            sdo = P.decode(m.arbitration_id, bytes(m.data))
+            assert (sdo.command, sdo.index, sdo.data >> 16) == (0x43, 0x1000, P.DEVICE_TYPE_OF_NODE[node])
+            assert t_ping_s < m.timestamp < t_ping_s + 0.002, (node, m)
+        ext.send(_nmt_start())
+        sched.run_until(1_100_000)                       # past the 1 s heartbeats
+        beats = {P.node_of(m.arbitration_id): P.decode(m.arbitration_id, bytes(m.data)).state
+                 for m in _drain(ext) if P.frame_kind(m.arbitration_id) == "HEARTBEAT"}
+        assert beats == {n: P.NodeState.OPERATIONAL for n in P.BOARD_NODES}
 
         ext.send(_track_ra())
         sched.run_until(sched.now_us + 4_000_000)        # settling (breakaway takes ~3 s)
@@ -107,8 +120,8 @@ def test_external_python_host_on_the_in_process_bus(scenario):
         sched.run_until(sched.now_us + 100_000)
         assert ra.malformed_frames == 2
         faults = [P.decode(m.arbitration_id, bytes(m.data)) for m in _drain(ext)
-                  if m.arbitration_id == P.fault_cob_id(P.NODE_RA_AXIS)]
-        assert [(f.code, f.detail, f.malformed_frames) for f in faults] == [
+                  if m.arbitration_id == P.emcy_cob_id(P.NODE_RA_AXIS)]
+        assert [(f.fault_code, f.detail, f.count) for f in faults] == [
             (P.FaultCode.MALFORMED_FRAME, cob, 1), (P.FaultCode.MALFORMED_FRAME, cob, 2)]
         assert ra.mode == P.AxisMode.TRACK                # neither frame was taken as STOP
         assert {n: b.malformed_frames for n, b in tel.boards.items() if n != "ra-axis"} == {
@@ -119,15 +132,17 @@ def test_external_python_host_on_the_in_process_bus(scenario):
 
 
 def test_serve_session_logs_what_the_external_host_sent(scenario, tmp_path):
-    """With the monitor in the host's place, commands.log holds the external host's PING and
-    TRACK, errors.log its malformed frame, sensor.log the commanded setpoint, candump.log every
+    """With the monitor in the host's place, commands.log holds the external host's NMT START
+    and TRACK, errors.log its malformed frame, sensor.log the commanded setpoint, candump.log every
     frame, and report.json counts frames per id and the boards' counters; the monitor itself
     sent nothing."""
     session = ServeSession(scenario, tmp_path)
     ext = can.Bus(interface="schmidt-sim", channel=session.tel.network.channel)
     try:
         session.run(duration_s=0.3)
-        ext.send(_ping())
+        ext.send(_nmt_start())
+        for m in _pings():
+            ext.send(m)
         ext.send(_track_ra())
         session.run(duration_s=0.5)
         ext.send(_msg(P.axis_command_cob_id(P.NODE_RA_AXIS), bytes(3)))   # DLC 3
@@ -137,21 +152,22 @@ def test_serve_session_logs_what_the_external_host_sent(scenario, tmp_path):
         rep = session.close()
     assert session.close() is rep                                      # idempotent
     cmds = [l.split() for l in (tmp_path / "commands.log").read_text().splitlines() if not l.startswith("#")]
-    assert [c[1:3] for c in cmds] == [["all", "PING"], ["ra-axis", "TRACK"]]
+    assert [c[1:3] for c in cmds] == [["all", "START"], ["ra-axis", "TRACK"]]
     assert float(cmds[0][0]) == pytest.approx(0.3, abs=0.001)
     errors = (tmp_path / "errors.log").read_text()
     assert "0x201 malformed-frame AXIS_COMMAND: field 'dlc'" in errors    # as the monitor decodes it
-    assert "ra-axis malformed_frame malformed=1" in errors               # the board's FAULT frame
+    assert "ra-axis malformed_frame emcy=0x8200" in errors               # the board's EMCY
     rows = [l.split() for l in (tmp_path / "sensor.log").read_text().splitlines() if not l.startswith("#")]
     assert len(rows) == 130 and rows[0][2] == "0.0000" and rows[-1][1:3] == ["TRACK", "15.0000"]
 
     assert rep["stopped_by"] == "duration" and rep["simulated_s"] == pytest.approx(1.3)
-    assert rep["external_commands"] == {"HOST_BROADCAST PING": 1, "AXIS_COMMAND TRACK": 1}
+    assert rep["external_commands"] == {"NMT START": 1, "AXIS_COMMAND TRACK": 1}
     seen = rep["frames_seen"]
-    assert seen["HOST_BROADCAST"] == 1 and seen["AXIS_COMMAND_RA"] == 2
-    assert seen["FAULT_RA_AXIS"] == 1 and all(seen[f"HEARTBEAT_{n}"] == 3 for n in (
-        "RA_AXIS", "DEC_AXIS", "RA_READER", "DEC_READER", "FOCUS"))      # boot, PING answer, 1 s
-    assert 125 <= seen["AXIS_STATUS_RA"] <= 130
+    assert seen["NMT"] == 1 and seen["AXIS_COMMAND_RA"] == 2
+    assert seen["EMCY_RA_AXIS"] == 1 and all(
+        seen[f"HEARTBEAT_{n}"] == 2 and seen[f"SDO_RESPONSE_{n}"] == 1 for n in (
+            "RA_AXIS", "DEC_AXIS", "RA_READER", "DEC_READER", "FOCUS"))    # boot-up, 1 s
+    assert 98 <= seen["AXIS_STATUS_RA"] <= 100          # only after the NMT start at 0.3 s
     assert rep["boards"]["ra-axis"]["malformed_frames"] == 1 and rep["boards"]["ra-axis"]["limit_refusals"] == 0
     assert rep["monitor"]["malformed_frames"] == 1 and rep["bus_stats"]["interface"] == "sim"
     assert rep["plant"]["ra"]["truth"]["peak_abs_rate_arcsec_s"] > 0
@@ -161,7 +177,7 @@ def test_serve_session_logs_what_the_external_host_sent(scenario, tmp_path):
     assert len(dump) == rep["frames_seen_total"] == rep["monitor"]["candump_frames"]
     assert rep["bus_stats"]["frames"] - len(dump) in (0, 1)             # one may still be on the wire
     assert [l.split()[2] for l in dump if l.split()[2][:3] in ("000", "201")] == [
-        "000#1001000000000000", "201#1005010000000000", "201#000000"]
+        "000#0100", "201#1005010000000000", "201#000000"]
     assert json.loads((tmp_path / "report.json").read_text())["external_commands"] == rep["external_commands"]
     assert "AXIS_COMMAND TRACK: 1" in (tmp_path / "report.md").read_text()
 
@@ -176,14 +192,15 @@ def test_monitor_refuses_to_command(scenario, tmp_path):
 
 
 def test_served_interface_lists_every_board_and_its_ids():
-    """The start banner's table: five boards; the RA axis sends status/aux/heartbeat/fault and
-    listens to the broadcast and its AXIS_COMMAND."""
+    """The start banner's table: five boards; the RA axis sends status/aux/heartbeat/EMCY/SDO
+    answers and listens to NMT, the host heartbeat, STOP_ALL, its reader's LIMIT, SDO requests
+    and its AXIS_COMMAND."""
     table = {b["board"]: b for b in served_interface()}
     assert list(table) == ["ra-axis", "dec-axis", "ra-reader", "dec-reader", "focus"]
-    assert [c for c, _ in table["ra-axis"]["listens"]] == [0x000, 0x201]
-    assert {c for c, _ in table["ra-axis"]["sends"]} == {0x081, 0x181, 0x281, 0x701}
-    assert {c for c, _ in table["ra-reader"]["sends"]} == {0x073, 0x083, 0x183, 0x703}
-    assert [c for c, _ in table["focus"]["listens"]] == [0x000, 0x205]
+    assert [c for c, _ in table["ra-axis"]["listens"]] == [0x000, 0x710, 0x190, 0x283, 0x601, 0x201]
+    assert {c for c, _ in table["ra-axis"]["sends"]} == {0x081, 0x181, 0x281, 0x581, 0x701}
+    assert {c for c, _ in table["ra-reader"]["sends"]} == {0x083, 0x183, 0x283, 0x583, 0x703}
+    assert [c for c, _ in table["focus"]["listens"]] == [0x000, 0x710, 0x190, 0x605, 0x205]
 
 
 def test_serve_scenario_moves_the_bus_to_socketcan(scenario):
@@ -222,7 +239,8 @@ def test_cli_serve_rejects_a_bad_duration(tmp_path, capsys):
 
 def test_docs_serve_in_process_example_runs_verbatim(capsys, monkeypatch):
     """The in-process example of docs/serve.md, executed exactly as written (from the repository
-    root): five HEARTBEATs answer its PING, and the RA axis then tracks."""
+    root): five boot-up messages, five SDO answers to its health check, and after NMT start
+    the RA axis tracks."""
     text = (ROOT / "docs/serve.md").read_text(encoding="utf-8")
     section = text.split("## In the same Python process", 1)[1]
     code = section.split("```python\n", 1)[1].split("```", 1)[0]
@@ -231,6 +249,7 @@ def test_docs_serve_in_process_example_runs_verbatim(capsys, monkeypatch):
     exec(compile(code, "docs/serve.md", "exec"), scope)
     lines = capsys.readouterr().out.splitlines()
     assert sum("HEARTBEAT" in ln and "state=BOOT" in ln for ln in lines) == 5, lines           # at power-on
-    assert sum("HEARTBEAT" in ln and "state=OPERATIONAL" in ln for ln in lines) == 5, lines    # the PING's answers
+    assert sum("SDO_RESPONSE" in ln and "command=67" in ln and "index=4096" in ln
+               for ln in lines) == 5, lines                                                    # the health check
     tel = scope["tel"]
     assert tel.plants["ra"].axis_rate_arcsec_s == pytest.approx(15.0, abs=5.0)   # tracking, not stopped

@@ -15,7 +15,7 @@ from bus.errors import MalformedFrame
 from bus.scheduler import Scheduler
 from bus.serial_link import SerialLink
 from host.rs232 import Rs232Hub, TelemetryPort
-from boards_fakes import FakeBus, ToyAxis
+from boards_fakes import FakeBus, ToyAxis, nmt_start
 
 _RANGES = {"b": (-128, 127), "B": (0, 255), "h": (-32768, 32767), "H": (0, 65535),
            "i": (-(1 << 31), (1 << 31) - 1), "I": (0, (1 << 32) - 1)}
@@ -167,6 +167,7 @@ def test_axis_controller_telemetry_on_pyserial_loop():
     ax = AxisController(s, bus, 1, read_qei_counts=plant.qei_counts, on_duties=plant.set_duties,
                         serial_port=port)
     ax.start()
+    nmt_start(ax)
     bus.inject(p.axis_command_cob_id(1), p.encode_axis_command(p.AxisCommand.SET, 1, 0))
     tp, sink = receiver(1)
     for k in range(1, 5):
@@ -199,7 +200,9 @@ def test_reader_and_focus_telemetry_on_pyserial_loop():
     fc = FocusController(s, fbus, 5, on_step=lambda d: enc.update(n=enc["n"] + 5 * d),
                          read_encoder_counts=lambda: enc["n"], serial_port=fport)
     rd.start()
+    nmt_start(rd)
     fc.start()
+    nmt_start(fc)
     fbus.inject(p.focus_command_cob_id(), p.encode_focus_command(p.FocusCommand.STEP, 40))
     s.run_until(250_000)
     tr, rsink = receiver(3)
@@ -224,6 +227,7 @@ def test_board_reset_truncates_packet_and_hub_recovers():
     hub = Rs232Hub(s, 115_200)
     tp = hub.add_port(link.b, "ra-axis", 1)
     ax.start()
+    nmt_start(ax)
     s.run_until(500_000 + 20_000)        # second packet is 20 ms into its 49 ms on the wire
     ax.reset("software")
     s.run_until(1_500_000)
@@ -238,5 +242,6 @@ def test_no_port_no_sampling():
     plant = ToyAxis(s)
     ax = AxisController(s, FakeBus(), 1, read_qei_counts=plant.qei_counts, on_duties=plant.set_duties)
     ax.start()
+    nmt_start(ax)
     s.run_until(300_000)
     assert ax.uart is None and ax._tlm_values == [] and ax.telemetry_seq == 0

@@ -41,6 +41,11 @@ class Rig:
         for b in self.boards:
             b.start()
         self.gw.start()
+        # the boards boot PRE-OPERATIONAL: NMT start (docs/canopen.md) so that they send PDOs
+        if self.boards:       # from a node of its own, so the listener sees it like any frame
+            SimBus(network=self.net).send(can.Message(
+                arbitration_id=p.nmt_cob_id(), is_extended_id=False,
+                data=p.encode_nmt(p.NmtCommand.START)))
         self.h = hid_device.device(usb=self.usb)
 
     def bus_frames(self):
@@ -85,31 +90,31 @@ def test_ping_round_trip_through_hid(rig):
     h = rig.h
     h.open(VID, PID)
     assert h.get_product_string().startswith("ARIES")
-    assert h.send_feature_report([0] + list(R.encode_command(R.CMD_SET_FILTERS, [(0x700, 0x7F0)]))) == 65
+    assert h.send_feature_report([0] + list(R.encode_command(R.CMD_SET_FILTERS, [(0x580, 0x7F0)]))) == 65
     rig.s.run_until(50_000)
     read_all(h)
     rig.bus_frames()
-    ping = p.encode_host_broadcast(p.BroadcastCommand.PING)
+    ping = p.encode_sdo(0x40, 0x1000, 0)          # the health check: SDO upload of 0x1000
     t_write = rig.s.now_us
-    assert h.write(out_report([(0x000, ping)])) == 65
+    assert h.write(out_report([(p.sdo_request_cob_id(3), ping), (p.sdo_request_cob_id(5), ping)])) == 65
     answered = {}
     while len(answered) < 2:
         t, r = h.read_timed(64, 100)
         assert r, "no IN report within 100 ms of the PING"
         rep = R.decode_report(bytes(r), R.KIND_IN)
         for f in rep.frames:
-            assert f.arbitration_id in (p.heartbeat_cob_id(3), p.heartbeat_cob_id(5))   # the filter held
-            hb = p.decode_heartbeat(f.data)
-            assert hb.state == p.NodeState.OPERATIONAL
+            assert f.arbitration_id in (p.sdo_response_cob_id(3), p.sdo_response_cob_id(5))   # the filter held
+            sdo = p.decode_sdo(f.data)
+            assert (sdo.command, sdo.index) == (0x43, 0x1000)
             frame_t = rig.gw.boot_us + f.timestamp_us
             assert t_write < frame_t <= t                     # stamped on reception, before the PC took it
             assert t - frame_t <= 1000                       # the next 1 ms poll took it
             answered[f.arbitration_id] = t
-    on_bus = [m for m in rig.bus_frames() if m.arbitration_id == 0x000]
-    assert len(on_bus) == 1 and bytes(on_bus[0].data) == ping and not on_bus[0].is_extended_id
+    on_bus = [m for m in rig.bus_frames() if m.arbitration_id in (0x603, 0x605)]
+    assert len(on_bus) == 2 and all(bytes(m.data) == ping and not m.is_extended_id for m in on_bus)
     assert max(answered.values()) - t_write <= 3000           # write → CAN → answer → PC in ≤ 3 frames
     st_ = status(h)
-    assert st_.tx_frames == 1 and st_.out_reports == 1 and st_.out_malformed == 0 and st_.node_id == 0x10
+    assert st_.tx_frames == 2 and st_.out_reports == 1 and st_.out_malformed == 0 and st_.node_id == 0x10
 
 
 def test_pc_to_can_carries_four_frames_per_report_in_order(rig):

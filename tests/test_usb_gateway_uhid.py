@@ -60,16 +60,17 @@ def test_create2_then_ping_round_trip_as_uhid_events(rig):
     sched = tel.scheduler
     sched.run_until(sched.now_us + 50_000)
     drain(kern)
-    out = R.encode_report(R.KIND_OUT, [(0x000, p.encode_host_broadcast(p.BroadcastCommand.PING))])
+    out = R.encode_report(R.KIND_OUT, [(0x000, p.encode_nmt(p.NmtCommand.START))])   # NMT start
     kern.send(kernel_output(b"\0" + out))          # hidraw: report number 0, then the report
     gw.handle_events()
-    sched.run_until(sched.now_us + 5_000)
+    sched.run_until(sched.now_us + 25_000)
     ids = set()
     for ev in drain(kern):
         typ, size = struct.unpack_from("<IH", ev)
         assert typ == INPUT2 and size == 64
         ids |= {f.arbitration_id for f in R.decode_report(ev[6:6 + size], R.KIND_IN).frames}
-    assert {p.heartbeat_cob_id(n) for n in p.BOARD_NODES} <= ids
+    assert {p.axis_status_cob_id(1), p.axis_status_cob_id(2), p.position_cob_id(3),
+            p.position_cob_id(4)} <= ids                  # the nodes are OPERATIONAL: PDOs flow
     kern.send(struct.pack("<IIBB", GET_REPORT, 77, 0, 0))
     kern.send(struct.pack("<IIBBH", SET_REPORT, 78, 0, 0, 65) + b"\0\x09" + bytes(63))
     kern.send(struct.pack("<IIBB", GET_REPORT, 79, 5, 0))

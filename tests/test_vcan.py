@@ -113,13 +113,12 @@ def test_every_protocol_frame_crosses_vcan0_unchanged():
 
 
 def test_round_trip_time_between_two_sockets():
-    """A PING and the HEARTBEAT answering it cross vcan0 and back; the time is recorded, and only
-    sanity-bounded (a software-emulated guest is slow and has stalls)."""
-    ping = can.Message(arbitration_id=P.host_broadcast_cob_id(), is_extended_id=False,
-                       data=P.encode_host_broadcast(P.BroadcastCommand.PING, 0, P.ResetCause.POWER_ON))
-    beat = can.Message(arbitration_id=P.heartbeat_cob_id(P.NODE_FOCUS), is_extended_id=False,
-                       data=P.encode_heartbeat(P.DeviceType.FOCUS_CONTROLLER, P.NodeState.OPERATIONAL,
-                                               P.ResetCause.POWER_ON))
+    """An SDO upload request (the health check) and the SDO answer cross vcan0 and back; the time
+    is recorded, and only sanity-bounded (a software-emulated guest is slow and has stalls)."""
+    ping = can.Message(arbitration_id=P.sdo_request_cob_id(P.NODE_FOCUS), is_extended_id=False,
+                       data=P.encode_sdo(0x40, 0x1000, 0))
+    beat = can.Message(arbitration_id=P.sdo_response_cob_id(P.NODE_FOCUS), is_extended_id=False,
+                       data=P.encode_sdo(0x43, 0x1000, 0, int(P.DeviceType.FOCUS_CONTROLLER) << 16))
     rtt_us = []
     with _bus() as host, _bus() as board:
         for _ in range(300):
@@ -186,14 +185,15 @@ def test_health_check_waits_in_wall_clock_time_for_a_remote_node():
 
     def responder(stop: threading.Event, delay_s: float) -> None:
         with _bus() as b:
-            b.set_filters([{"can_id": P.host_broadcast_cob_id(), "can_mask": 0x7FF, "extended": False}])
+            b.set_filters([{"can_id": P.sdo_request_cob_id(P.NODE_FOCUS), "can_mask": 0x7FF,
+                            "extended": False}])
             while not stop.is_set():
                 m = b.recv(0.01)
-                if m is not None:
+                if m is not None:            # answers every SDO request with 0x1000 (device type)
                     time.sleep(delay_s)
-                    b.send(can.Message(arbitration_id=P.heartbeat_cob_id(P.NODE_FOCUS), is_extended_id=False,
-                                       data=P.encode_heartbeat(P.DeviceType.FOCUS_CONTROLLER,
-                                                               P.NodeState.OPERATIONAL, P.ResetCause.POWER_ON)))
+                    b.send(can.Message(arbitration_id=P.sdo_response_cob_id(P.NODE_FOCUS), is_extended_id=False,
+                                       data=P.encode_sdo(0x43, 0x1000, 0,
+                                                         int(P.DeviceType.FOCUS_CONTROLLER) << 16)))
 
     stop = threading.Event()
     th = threading.Thread(target=responder, args=(stop, 0.030), daemon=True)
@@ -302,14 +302,19 @@ def test_candump_hears_every_frame_and_cantools_decodes_it(tracking):
         db.decode_message(cob, bytes.fromhex(data_hex))
         P.decode(cob, bytes.fromhex(data_hex))
         counts[cob] = counts.get(cob, 0) + 1
-    sim_s = tracking["report"]["simulated_s"]
+    # the boards send PDOs from the host's NMT start on (after the health check and the SDO
+    # reads of identity and parameters, which on the paced bus take wall-clock time)
+    t_start = next(float(line.split()[0]) for line in (tracking["out"] / "commands.log").read_text().splitlines()
+                   if not line.startswith("#") and "NMT START" in line)
+    sim_s = tracking["report"]["simulated_s"] - t_start
     for node in P.AXIS_NODES:
         assert abs(counts[P.axis_status_cob_id(node)] - sim_s * 100) <= 3
         assert abs(counts[P.axis_aux_cob_id(node)] - sim_s * 100) <= 3
     for node in P.READER_NODES:
         assert abs(counts[P.position_cob_id(node)] - sim_s * 100) <= 3
     for node in P.BOARD_NODES:
-        assert counts[P.heartbeat_cob_id(node)] >= int(sim_s)     # 1 s period, + boot and PING answer
-    assert counts[P.host_broadcast_cob_id()] == 1                 # the health-check PING
+        assert counts[P.heartbeat_cob_id(node)] >= int(sim_s)     # 1 s period, + boot-up
+        assert counts[P.sdo_response_cob_id(node)] >= 1           # health check, identity, parameters
+    assert counts[P.nmt_cob_id()] == 1                            # NMT start after the health check
     assert counts[P.axis_command_cob_id(P.NODE_RA_AXIS)] == 1     # TRACK
     _record("candump_frames", len(lines))

@@ -63,7 +63,8 @@ def served(tmp_path_factory):
     stdout: list[str] = []
     # the kernel filters for this host: heartbeats and the RA axis's periodic frames (fewer
     # wake-ups for a slow guest; the server's candump.log has everything)
-    filters = [{"can_id": P.heartbeat_cob_id(P.NODE_RA_AXIS) & 0x7F0, "can_mask": 0x7F0, "extended": False}] + [
+    filters = [{"can_id": P.heartbeat_cob_id(P.NODE_RA_AXIS) & 0x7F0, "can_mask": 0x7F0, "extended": False},
+               {"can_id": P.sdo_response_cob_id(P.NODE_RA_AXIS) & 0x7F0, "can_mask": 0x7F0, "extended": False}] + [
         {"can_id": cob, "can_mask": 0x7FF, "extended": False}
         for cob in (P.axis_status_cob_id(P.NODE_RA_AXIS), P.axis_aux_cob_id(P.NODE_RA_AXIS))]
     with can.Bus(interface="socketcan", channel=CHANNEL, receive_own_messages=False,
@@ -85,9 +86,12 @@ def served(tmp_path_factory):
 
             t0 = time.monotonic()
             collect(lambda: time.monotonic() - t0 > 0.3)          # the boards' boot heartbeats
-            ping = can.Message(arbitration_id=P.host_broadcast_cob_id(), is_extended_id=False,
-                               data=P.encode_host_broadcast(P.BroadcastCommand.PING, 0, P.ResetCause.POWER_ON))
-            host.send(ping)
+            # the health check (SDO upload of 0x1000 from every board), then NMT start
+            for node in P.BOARD_NODES:
+                host.send(can.Message(arbitration_id=P.sdo_request_cob_id(node), is_extended_id=False,
+                                      data=P.encode_sdo(0x40, 0x1000, 0)))
+            host.send(can.Message(arbitration_id=P.nmt_cob_id(), is_extended_id=False,
+                                  data=P.encode_nmt(P.NmtCommand.START)))
             i_ping = len(got)
             t_ping = time.monotonic()
             collect(lambda: time.monotonic() - t_ping > 0.5)
@@ -114,17 +118,18 @@ def served(tmp_path_factory):
 
 
 def test_serve_answers_an_external_ping_with_five_heartbeats(served):
-    """The external host's PING on vcan0 is answered by a HEARTBEAT from each of the five boards,
-    all OPERATIONAL, and the start banner named the channel and every node."""
-    beats = {}
+    """The external host's health check on vcan0 (SDO upload of 0x1000) is answered by each of
+    the five boards with its device type, and the start banner named the channel and every node."""
+    answers = {}
     for t, m in served["frames"][served["i_ping"]:served["i_track"]]:
-        if P.frame_kind(m.arbitration_id) == "HEARTBEAT":
-            beats.setdefault(P.node_of(m.arbitration_id), P.decode(m.arbitration_id, bytes(m.data)))
-    assert sorted(beats) == sorted(P.BOARD_NODES), served["stdout"]
-    assert {hb.state for hb in beats.values()} == {P.NodeState.OPERATIONAL}
+        if P.frame_kind(m.arbitration_id) == "SDO_RESPONSE":
+            answers.setdefault(P.node_of(m.arbitration_id), P.decode(m.arbitration_id, bytes(m.data)))
+    assert sorted(answers) == sorted(P.BOARD_NODES), served["stdout"]
+    assert all((a.command, a.index, a.data >> 16) == (0x43, 0x1000, P.DEVICE_TYPE_OF_NODE[n])
+               for n, a in answers.items())
     banner = served["stdout"]
     assert f"channel {CHANNEL}" in banner and "node 1 ra-axis" in banner and "node 5 focus" in banner
-    assert "listens 000 201" in banner
+    assert "listens 000 710 190 283 601 201" in banner
 
 
 def test_serve_tracks_at_15_arcsec_s_for_an_external_track_command(served):
@@ -152,20 +157,20 @@ def test_serve_tracks_at_15_arcsec_s_for_an_external_track_command(served):
 
 
 def test_serve_stops_on_sigint_and_its_logs_hold_the_external_host(served):
-    """SIGINT ends serve with status 0; commands.log holds the external PING and TRACK, the
+    """SIGINT ends serve with status 0; commands.log holds the external NMT START and TRACK, the
     report counts them and the frames per id, candump.log has them, and no board counted a
     malformed frame."""
     out = served["out"]
     assert served["returncode"] == 0, served["stdout"]
     assert "stopped by SIGINT" in served["stdout"]
     cmds = [line.split()[1:3] for line in (out / "commands.log").read_text().splitlines() if not line.startswith("#")]
-    assert cmds == [["all", "PING"], ["ra-axis", "TRACK"]]
+    assert cmds == [["all", "START"], ["ra-axis", "TRACK"]]
     rep = json.loads((out / "report.json").read_text())
     assert rep["stopped_by"] == "SIGINT" and rep["bus"] == {"interface": "socketcan", "channel": CHANNEL,
                                                             "bitrate": 1_000_000}
-    assert rep["external_commands"] == {"HOST_BROADCAST PING": 1, "AXIS_COMMAND TRACK": 1}
+    assert rep["external_commands"] == {"NMT START": 1, "AXIS_COMMAND TRACK": 1}
     seen = rep["frames_seen"]
-    assert seen["HOST_BROADCAST"] == 1 and seen["AXIS_COMMAND_RA"] == 1
+    assert seen["NMT"] == 1 and seen["AXIS_COMMAND_RA"] == 1
     assert seen["AXIS_STATUS_RA"] >= SETTLE_FRAMES + MEASURE_FRAMES
     assert all(b["malformed_frames"] == 0 for b in rep["boards"].values()) and rep["monitor"]["malformed_frames"] == 0
     assert rep["realtime"]["steps"] >= rep["simulated_s"] * 1e6 // 5_000 - 1

@@ -44,7 +44,7 @@ from typing import Dict, List, Optional, Tuple, Union
 from bus import protocol as proto
 
 __all__ = ["Entry", "Obj", "Kind", "KINDS", "VENDOR_ID", "REVISION", "SOFTWARE_VERSION",
-           "EMCY_CODES", "EmcyCode", "serial_number", "cob_id_plan_rows",
+           "EMCY_CODES", "EMCY_OF_FAULT", "EmcyCode", "serial_number", "cob_id_plan_rows",
            "UNSIGNED8", "UNSIGNED16", "UNSIGNED32", "INTEGER32", "VISIBLE_STRING",
            "NMT_CMD_CODE", "BOOTUP", "NMT_COB_ID", "sdo_rx_cob_id", "sdo_tx_cob_id",
            "emcy_cob_id", "heartbeat_cob_id", "heartbeat_node", "STOP_ALL_COB_ID", "PDO_FRAMES", "frame_fields",
@@ -209,6 +209,9 @@ EMCY_CODES: Dict[str, EmcyCode] = {e.name: e for e in (
              "a consumed heartbeat (0x1016) timed out (detail = the silent node id)"),
 )}
 
+#: The project's fault code -> EMCY name (what a firmware's ``send_fault(code)`` sends).
+EMCY_OF_FAULT: Dict[int, str] = {e.fault_code: e.name for e in EMCY_CODES.values() if e.fault_code}
+
 
 def serial_number(product_code: int, node_id: int) -> int:
     """Emulated serial number (0x1018 sub 4): product code << 16 | node id (assumed, see module doc)."""
@@ -294,7 +297,7 @@ _AXIS_MFR = (
               description="p of the twin-motor drive law (paper 3.3: 0.10-0.25)"),
     ], "the incremental PI of paper 4 and the drive law of 3.3"),
     compound(0x2001, "Preset rates", ARRAY, [
-        Entry(i + 1, f"{m} rate", INTEGER32, "rw", None, 0, I32_MAX, unit="milli-arcsec/s",
+        Entry(i + 1, f"{m} rate", INTEGER32, "ro", None, 0, I32_MAX, unit="milli-arcsec/s",
               description=f"magnitude of the {m} preset (AXIS_COMMAND cmd {i + 1})")
         for i, m in enumerate(("SLEW", "SET", "GUIDE", "FINE", "TRACK"))
     ], "axis rates of the preset commands; the command's direction byte gives the sign"),
@@ -319,7 +322,7 @@ _FOCUS_MFR = (
     compound(0x2200, "Focus drive", RECORD, [
         Entry(1, "Travel", UNSIGNED16, "rw", None, 0, 32767, unit="half-steps",
               description="targets are clamped to +-travel (6.25 um per half-step)"),
-        Entry(2, "Step rate", UNSIGNED32, "rw", None, 1, 1_000_000, unit="half-steps/s",
+        Entry(2, "Step rate", UNSIGNED32, "ro", None, 1, 1_000_000, unit="half-steps/s",
               description="half-step rate while moving"),
     ], "stepper drive of the focus housing (paper 3.2, 3.3)"),
     var(0x2201, "LVDT reference", UNSIGNED16, "rw", None, 0, 1023, unit="ADC counts",
@@ -419,12 +422,10 @@ def frame_fields(frame: str) -> List[Tuple[str, int, int, bool]]:
 
     Taken from :data:`bus.protocol.FRAMES` (the one frame table); a field is mapped as the
     smallest whole-byte type holding its bits (the 29-bit pos_counts an UNSIGNED32, the 10-bit
-    ADC counts an UNSIGNED16). STOP_ALL is HOST_BROADCAST's
-    cmd (3) and target node.
+    ADC counts an UNSIGNED16).
     """
-    spec = proto.FRAMES["HOST_BROADCAST" if frame == "STOP_ALL" else frame]
-    fields = [f for f in spec.fields if not (frame == "STOP_ALL" and f.name == "reset_cause")]
-    return [(f.name, f.start_byte, (f.bits + 7) // 8, f.signed) for f in fields]
+    spec = proto.FRAMES[frame]
+    return [(f.name, f.start_byte, (f.bits + 7) // 8, f.signed) for f in spec.fields]
 
 
 def _layout(frame: str) -> List[Tuple[str, int, bool]]:
@@ -474,11 +475,22 @@ def _diagnostics(k: Kind) -> List[Obj]:
 
 
 def _today_cob_id(frame: str, cob_id: int) -> int:
-    """The identifier the frame has on today's bus (bus/protocol.py), for the plan's table."""
+    """The identifier the frame had before issue 10 (HOST_BROADCAST 0x000, LIMIT 0x070 + reader),
+    for the plan's table; bus/protocol.py now uses the PDO ids (:func:`protocol_cob_id` agrees)."""
     if frame == "STOP_ALL":
-        return proto.host_broadcast_cob_id()
+        return 0x000
     if frame == "LIMIT":
-        return proto.limit_cob_id(cob_id - 0x280)          # the producing reader's node id
+        return 0x070 + (cob_id - 0x280)          # the producing reader's node id
+    return cob_id
+
+
+def protocol_cob_id(frame: str, cob_id: int) -> int:
+    """The identifier bus/protocol.py gives the frame carried by PDO ``cob_id`` (a test checks
+    they are equal: the wiring follows the plan)."""
+    if frame == "STOP_ALL":
+        return proto.stop_all_cob_id()
+    if frame == "LIMIT":
+        return proto.limit_cob_id(cob_id - 0x280)
     return proto.FRAMES[frame].function_code + (cob_id & 0x7F)
 
 
@@ -498,7 +510,7 @@ def cob_id_plan_rows() -> List[Tuple[str, str, str, str, str]]:
 
 def cob_id_plan_markdown() -> str:
     """docs/canopen.md's PDO table (a test checks the page contains exactly this)."""
-    lines = ["| frame | board kind | PDO | COB-ID (per node) | today |",
+    lines = ["| frame | board kind | PDO | COB-ID (per node) | before issue 10 |",
              "|---|---|---|---|---|"]
     for frame, kind, pdo, ids, today in cob_id_plan_rows():
         mark = "" if ids == today else " (moves)"
