@@ -4,7 +4,7 @@
 independent generator (:mod:`plant.calibration.bench_records`, which imports nothing from
 ``plant``), runs ``calibrate`` on each in a child process and writes ``benchmark.json`` and
 ``benchmark.md`` (confusion matrix, exact-set accuracy, false positives, key-parameter errors,
-time and peak memory per record; :mod:`plant.calibration.benchmark`). The default seed list is
+time and peak memory per record; :mod:`host.calibration_benchmark`). The default seed list is
 fixed, so the figures are reproducible.
 """
 
@@ -60,7 +60,7 @@ def add_subparser(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the benchmark; print the summary; returns 0."""
-    from plant.calibration.benchmark import CI_SEEDS, DEFAULT_SEEDS, run_benchmark
+    from host.calibration_benchmark import CI_SEEDS, DEFAULT_SEEDS, run_benchmark
 
     seeds = parse_seeds(args.seeds) if args.seeds else (list(CI_SEEDS) if args.ci else list(DEFAULT_SEEDS))
     res = run_benchmark(args.out, seeds, long_samples=args.long)

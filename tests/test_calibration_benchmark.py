@@ -64,7 +64,7 @@ def test_generator_measurement_chain():
 
 @pytest.fixture(scope="module")
 def ci_benchmark(tmp_path_factory):
-    from plant.calibration.benchmark import run_benchmark
+    from host.calibration_benchmark import run_benchmark
 
     out = tmp_path_factory.mktemp("bench")
     run_benchmark(out, CI_SEEDS, progress=lambda line: None)

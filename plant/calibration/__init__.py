@@ -7,5 +7,5 @@ selection), :mod:`~plant.calibration.report` (``calibrate``: report.json/report.
 :mod:`~plant.calibration.emps_closed_loop` (EMPS closed-loop check),
 :mod:`~plant.calibration.generate` (synthetic records), :mod:`~plant.calibration.bench_records` (an
 independent record generator that imports nothing from plant/) and
-:mod:`~plant.calibration.benchmark` (the benchmark scoring). See docs/calibration.md.
+:mod:`~host.calibration_benchmark` (the benchmark scoring). See docs/calibration.md.
 """

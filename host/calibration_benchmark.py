@@ -1,5 +1,8 @@
 """The calibration benchmark: the loop on records from the independent generator, scored.
 
+A harness, so it lives in host/: it measures wall time and peak memory of each calibration
+(plant/ never reads the wall clock).
+
 :func:`run_benchmark` writes each record of :mod:`plant.calibration.bench_records` as CSV, runs
 ``calibrate`` on it (CSV reader included, no plots) in a fresh child process — so that the peak
 resident memory of one calibration can be read from the operating system — and scores what the
