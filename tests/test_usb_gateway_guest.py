@@ -20,6 +20,8 @@ from pathlib import Path
 
 import pytest
 
+import test_vcan_guest as vcan_guest  # module import: its test is not collected twice
+
 ROOT = Path(__file__).resolve().parent.parent
 GUEST = ROOT / ".ci" / "vcan-guest" / "run"
 #: Wall-clock limit of the guest run [s]; it normally takes about a minute (docs/usb-gateway.md).
@@ -33,12 +35,7 @@ def _not_ready() -> str | None:
         import hid  # noqa: F401  (loads libhidapi-hidraw.so.0 or fails)
     except (ImportError, OSError) as exc:
         return f"the PyPI 'hid' package with libhidapi-hidraw0 is needed: {exc}"
-    try:
-        chk = subprocess.run(["bash", str(GUEST), "check"], capture_output=True, text=True, timeout=60,
-                             stdin=subprocess.DEVNULL)
-    except (OSError, subprocess.TimeoutExpired) as exc:
-        return f"{GUEST} check: {exc}"
-    return None if chk.returncode == 0 else (chk.stdout + chk.stderr).strip()
+    return vcan_guest._guest_not_ready()   # the same QEMU guest (.ci/vcan-guest/run check)
 
 
 def test_unmodified_hidapi_client_drives_the_gateway_through_uhid(tmp_path):

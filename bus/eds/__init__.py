@@ -11,7 +11,7 @@ from typing import Optional
 
 __all__ = ["eds_path", "load_od", "KINDS"]
 
-from bus.eds.objects import KINDS  # noqa: E402
+from bus.eds.objects import KINDS, kind_spec  # noqa: E402
 
 _DIR = Path(__file__).resolve().parent
 
@@ -24,8 +24,7 @@ def eds_path(kind: str) -> Path:
     KeyError
         For an unknown kind (the message lists the valid ones).
     """
-    if kind not in KINDS:
-        raise KeyError(f"unknown board kind {kind!r}; valid: {sorted(KINDS)}")
+    kind_spec(kind)
     return _DIR / f"{kind}.eds"
 
 

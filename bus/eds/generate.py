@@ -17,7 +17,7 @@ import sys
 from pathlib import Path
 from typing import Dict, List
 
-from bus.eds.objects import (EDS_DATE, EDS_TIME, INTEGER32, KINDS, SOFTWARE_VERSION, VAR, VENDOR_ID,
+from bus.eds.objects import (EDS_DATE, EDS_TIME, INTEGER32, KINDS, kind_spec, SOFTWARE_VERSION, VAR, VENDOR_ID,
                              Entry, Kind, Obj)
 
 __all__ = ["render_eds", "write_all", "check_all", "EDS_DIR", "main"]
@@ -76,9 +76,7 @@ def render_eds(kind: str) -> str:
     KeyError
         For an unknown kind (the message lists the valid ones).
     """
-    if kind not in KINDS:
-        raise KeyError(f"unknown board kind {kind!r}; valid: {sorted(KINDS)}")
-    k: Kind = KINDS[kind]
+    k: Kind = kind_spec(kind)
     objs = k.objects()
     mandatory = [o.index for o in objs if o.index in (0x1000, 0x1001, 0x1018)]
     optional = [o.index for o in objs if o.index < 0x2000 and o.index not in mandatory]

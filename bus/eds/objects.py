@@ -547,3 +547,17 @@ def objects_markdown() -> str:
                              f"{tnames.get(e.data_type, hex(e.data_type))} | {e.access} | {rng} | "
                              f"{e.unit} |")
     return "\n".join(lines)
+
+
+def kind_spec(kind: str) -> "Kind":
+    """The :class:`Kind` of board kind ``kind`` (a key of :data:`KINDS`).
+
+    Raises
+    ------
+    KeyError
+        For an unknown kind (the message lists the valid ones).
+    """
+    try:
+        return KINDS[kind]
+    except KeyError:
+        raise KeyError(f"unknown board kind {kind!r}; valid: {sorted(KINDS)}") from None
