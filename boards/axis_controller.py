@@ -96,6 +96,8 @@ STATUS_LIMIT, STATUS_ANTIWINDUP, STATUS_OVERCURRENT, STATUS_FAULT = (
     int(f) for f in (proto.AxisStatusFlags.LIMIT_STOP, proto.AxisStatusFlags.ANTI_WINDUP,
                      proto.AxisStatusFlags.OVER_CURRENT, proto.AxisStatusFlags.FAULT))
 POS_INVALID_FLAG = int(proto.PositionFlags.INVALID)
+POS_LOW_FLAG = int(proto.PositionFlags.LOW_LIMIT)
+POS_HIGH_FLAG = int(proto.PositionFlags.HIGH_LIMIT)
 LIMIT_LOW, LIMIT_HIGH, LIMIT_INVALID = (
     int(f) for f in (proto.LimitFlags.LOW_SOFT_LIMIT, proto.LimitFlags.HIGH_SOFT_LIMIT,
                      proto.LimitFlags.POSITION_INVALID))
@@ -233,7 +235,9 @@ class AxisController(Board):
         self.current_a = (0.0, 0.0)
         self.overcurrent = False
         self.tripped = False
-        self.limit_flags = 0
+        self.limit_flags = 0              # effective: LIMIT-frame flags | POSITION-frame flags
+        self._limit_frame_flags = 0       # from the reader's LIMIT frames (repeated every 100 ms)
+        self._pos_limit_flags = 0         # from the limit bits of its POSITION frames (every 10 ms)
         self.position_invalid = False
         self.limit_refusals = 0
         # braking and supervision (boards/safety.py)
@@ -242,9 +246,11 @@ class AxisController(Board):
         self.brake_sp = 0.0
         self.brake_cut = False
         self._brake_bad = 0
+        self._rest_us = 0
         self._brake_ramp_end_us = 0
         self._overspeed_ticks = 0
         self._host_us = now
+        self.host_seen = False            # the host watchdog is armed by the first host frame
         self.host_timed_out = False
         self.reader_seen = False
         self._reader_us = now
@@ -312,6 +318,9 @@ class AxisController(Board):
         elif self.mode == AxisMode.OPEN_LOOP:
             self.pi.force(self.open_loop_u, 0.0)
         else:
+            if (not self.braking and self.mode in (AxisMode.STOP, AxisMode.LIMIT_STOP)
+                    and abs(self.omega_arcsec_s) > self.safety.brake_stop_tol_arcsec_s):
+                self._brake(self.mode)       # a hold that moves (e.g. an unstable loop): supervise again
             if self.braking:
                 self._brake_tick(now_us)
             if not self.brake_cut:
@@ -351,10 +360,12 @@ class AxisController(Board):
                 self._brake(AxisMode.STOP)
         else:
             self._overspeed_ticks = 0
-        if self.limit_flags and now_us - self._limit_us > sf.limit_expiry_us:
-            self.limit_flags = 0                       # LIMIT frames stopped: the state expires
-            if self.mode == AxisMode.LIMIT_STOP:
-                self.mode = AxisMode.STOP
+        if self._limit_frame_flags and now_us - self._limit_us > sf.limit_expiry_us:
+            self._limit_frame_flags = 0                # LIMIT frames stopped: the state expires
+            self._apply_limits()
+        if self._pos_limit_flags and now_us - self._reader_us > sf.limit_expiry_us:
+            self._pos_limit_flags = 0                  # POSITION frames stopped: likewise
+            self._apply_limits()
         if self.reader_seen:
             lost = (1 if now_us - self._reader_us > sf.reader_timeout_us
                     else (2 if self.reader_invalid else 0))
@@ -368,7 +379,7 @@ class AxisController(Board):
             elif self.reader_lost:
                 self.reader_lost = 0
         wd = sf.host_watchdog_us
-        if wd is not None and now_us - self._host_us > wd:
+        if wd is not None and self.host_seen and now_us - self._host_us > wd:
             self.host_timed_out = True
             self.queue_fault(FAULT_HOST_TIMEOUT, wd // 1000)
             if self.motion_sign() != 0:
@@ -387,6 +398,7 @@ class AxisController(Board):
             self.braking = True
             self.brake_sp = self.omega_arcsec_s
             self._brake_bad = 0
+            self._rest_us = 0
             self._brake_ramp_end_us = (self.scheduler.now_us
                                        + int(abs(self.brake_sp) / self._brake_step) * self.tick_us)
         self.setpoint_arcsec_s = self.brake_sp
@@ -403,14 +415,18 @@ class AxisController(Board):
             self._brake_bad += 1
         else:
             self._brake_bad = 0
+        if r == 0.0 and w <= sf.brake_stop_tol_arcsec_s:
+            self._rest_us += self.tick_us
+        else:
+            self._rest_us = 0
         late = r == 0.0 and now_us - self._brake_ramp_end_us > sf.brake_grace_us
-        if self._brake_bad >= sf.brake_bad_ticks or (late and w > sf.brake_stop_tol_arcsec_s):
+        if self._brake_bad >= sf.brake_bad_ticks or (late and self._rest_us < sf.brake_rest_us):
             self.brake_cut = True
             self.braking = False
             self.setpoint_arcsec_s = 0.0
             self.pi.force(0.0)
             self.queue_fault(FAULT_BRAKE_CUT, int(min(w, 65535)))
-        elif r == 0.0 and w <= sf.brake_stop_tol_arcsec_s:
+        elif self._rest_us >= sf.brake_rest_us:
             self.braking = False                          # at rest: PI holds zero rate
 
     def _write_outputs(self) -> None:
@@ -439,6 +455,11 @@ class AxisController(Board):
             self.reader_seen = True
             self._reader_us = self.scheduler.now_us
             self.reader_invalid = bool(pos.flags & POS_INVALID_FLAG)
+            flags = ((LIMIT_LOW if pos.flags & POS_LOW_FLAG else 0)
+                     | (LIMIT_HIGH if pos.flags & POS_HIGH_FLAG else 0))
+            if flags != self._pos_limit_flags:
+                self._pos_limit_flags = flags
+                self._apply_limits()
         elif arbitration_id == proto.axis_command_cob_id(self.node_id):
             c = proto.decode_axis_command(data)
             self._host_alive()
@@ -461,6 +482,7 @@ class AxisController(Board):
 
     def _host_alive(self) -> None:
         self._host_us = self.scheduler.now_us
+        self.host_seen = True
         if self.host_timed_out:
             self.host_timed_out = False
 
@@ -548,13 +570,27 @@ class AxisController(Board):
         return (x > 0) - (x < 0)
 
     def _limit(self, flags: int) -> None:
+        """A LIMIT frame from the axis's reader."""
         self.position_invalid = bool(flags & LIMIT_INVALID)
-        self.limit_flags = flags & (LIMIT_LOW | LIMIT_HIGH)
+        self._limit_frame_flags = flags & (LIMIT_LOW | LIMIT_HIGH)
+        self._apply_limits(flags)
+
+    def _apply_limits(self, detail: int | None = None) -> None:
+        """Effective soft-limit state = LIMIT-frame flags | POSITION-frame limit bits.
+
+        The reader reports its limit state twice, in every POSITION frame (10 ms) and in LIMIT
+        frames (on change, repeated every 100 ms while active); a limit counts as active while
+        either source says so, and clears only when both do. So one frame on the reader's
+        COB-ID saying "no limit" (a faulty or spoofing node: the 10⁶-frame fuzz of docs/faults.md)
+        cannot release an active limit; the real reader's next frame re-asserts it.
+        """
+        self.limit_flags = self._limit_frame_flags | self._pos_limit_flags
         if self._limit_active_toward(self.motion_sign()):
             self._brake(AxisMode.LIMIT_STOP)
             if self.limit_stop_mode == "coast":
                 self.pi.force(0.0)
-            self.send_fault(FAULT_LIMIT_STOP, detail=flags)
+            if detail is not None:
+                self.send_fault(FAULT_LIMIT_STOP, detail=detail)
         elif self.mode == AxisMode.LIMIT_STOP and not self.limit_flags:
             self.mode = AxisMode.STOP
 

@@ -41,9 +41,9 @@ REFUSE_GAIN, REFUSE_RATE, REFUSE_DUTY, REFUSE_READER, REFUSE_TRAVEL = 1, 2, 3, 5
 #: command, the second meaning of code 4).
 REFUSE_LIMIT = 4
 
-#: Host watchdog the host wiring should configure once the host sends its HEARTBEAT (0x710)
-#: every second: 2 s = two missed host heartbeats (assumed; CiA-301 practice is a consumer
-#: time of 1.5-3 heartbeat periods).
+#: Host watchdog: the host sends its CiA heartbeat (0x710) every second, so 2 s = two missed host
+#: heartbeats (assumed; CiA-301 practice is a consumer time of 1.5-3 heartbeat periods). The
+#: default of :attr:`SafetyLimits.host_watchdog_us`.
 RECOMMENDED_HOST_WATCHDOG_US = 2_000_000
 
 
@@ -86,6 +86,12 @@ class SafetyLimits:
         is sent (default 1.5: above the PI's ≈20 % overshoot of a slew step (docs/boards.md),
         inside the 2 × maximum rate the reader's braking zone is computed for). Found by the 10⁶-frame
         fuzz: open loop at full duty ran DEC 0.36° past its limit.
+    brake_rest_us : int
+        The rate must stay below ``brake_stop_tol_arcsec_s`` this long before a braking stop
+        counts as done and the PI holds zero rate, µs (default 50 000 = 10 ticks: an unstable
+        loop passing through zero is not at rest; a hold that moves faster than the tolerance
+        restarts the supervised stop; found by the fuzz: gains at the band edge oscillated at
+        full duty, ±270″/s, in STOP).
     brake_stop_tol_arcsec_s : float
         Rate below which the axis counts as stopped, ″/s (default 50: ≈ 20 QEI counts per 5 ms
         tick, well above the quantisation of 2.3″/s, below the 100″/s guide rate).
@@ -93,9 +99,11 @@ class SafetyLimits:
         Reaction time budget of the soft-limit zone, µs (default 40 000: one 10 ms EnDat read,
         one 5 ms ISR, the PI's ramp lag, bus latency; the slew test shows the margin left).
     host_watchdog_us : int or None
-        Stop the axis when no host frame (any accepted id, incl. the host HEARTBEAT 0x710)
-        arrived for this long, µs. None = disabled (default until the host sends heartbeats;
-        :data:`RECOMMENDED_HOST_WATCHDOG_US` is the value to wire then).
+        Stop the axis when no host frame (its CiA heartbeat 0x710, an AXIS_COMMAND to
+        this axis, STOP_ALL; NMT and SDO traffic do not count) arrived for this long, µs. Armed by the
+        first host frame after reset (boards boot before the PC, paper §5.2 power-on; an idle bus
+        with no host raises nothing). None = disabled. Default
+        :data:`RECOMMENDED_HOST_WATCHDOG_US` (2 s).
     reader_timeout_us : int
         Position reader declared lost after this long without a POSITION frame, µs (default
         50 000 = 5 POSITION periods of 10 ms). Supervision starts with the reader's first frame.
@@ -117,7 +125,8 @@ class SafetyLimits:
     max_zone_rate_arcsec_s: float = 21_600.0
     overspeed_factor: float = 1.5
     brake_stop_tol_arcsec_s: float = 50.0
-    host_watchdog_us: Optional[int] = None
+    brake_rest_us: int = 50_000
+    host_watchdog_us: Optional[int] = RECOMMENDED_HOST_WATCHDOG_US
     reader_timeout_us: int = 50_000
     limit_expiry_us: int = 350_000
     fault_clear_hold_us: int = 1_000_000
@@ -132,7 +141,7 @@ class SafetyLimits:
             v = getattr(self, name)
             if not (v > 0 and v < float("inf")):
                 raise ValueError(f"{name} must be finite and > 0, got {v}")
-        for name in ("brake_bad_ticks", "brake_latency_us", "brake_grace_us", "reader_timeout_us",
+        for name in ("brake_bad_ticks", "brake_latency_us", "brake_grace_us", "brake_rest_us", "reader_timeout_us",
                      "limit_expiry_us", "fault_clear_hold_us"):
             if int(getattr(self, name)) <= 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")

@@ -32,6 +32,13 @@ _AXIS_OF_NODE = {node: axis for axis, node in AXIS_NODES.items()}
 #: EDS (board kind) of each node: what the host's SDO client reads it with.
 _EDS_OF_NODE = {int(i.node_id): s.firmware.CANOPEN_KIND for s in REGISTRY for i in s.instances}
 
+
+def _node_name(node: int) -> str:
+    """Log name of a node: the registry's board name; the host node 0x10 (an external host's
+    heartbeat seen by ``serve``'s monitor) is ``host``."""
+    return NODE_NAMES.get(node, "host" if node == P.NODE_HOST else str(node))
+
+
 _MODE_CMD = {
     "stop": P.AxisCommand.STOP,
     "slew": P.AxisCommand.SLEW,
@@ -252,10 +259,10 @@ class HostClient:
         self.heartbeats[node] = (now, f.state)
         if node in self.lost:
             self.lost.discard(node)
-            self._error(now, NODE_NAMES.get(node, str(node)), "heartbeat-back", "the board answers again")
+            self._error(now, _node_name(node), "heartbeat-back", "the board answers again")
         if self._last_state.get(node) != f.state:
             if self.logs:
-                self.logs.status(now, node, NODE_NAMES.get(node, str(node)), "state",
+                self.logs.status(now, node, _node_name(node), "state",
                                  P.NodeState(f.state).name)
             self._last_state[node] = f.state
 
@@ -272,7 +279,7 @@ class HostClient:
             seen = self.heartbeats.get(node)
             if node not in self.lost and seen is not None and now - seen[0] > self.HEARTBEAT_TIMEOUT_US:
                 self.lost.add(node)
-                self._error(now, NODE_NAMES.get(node, str(node)), "heartbeat-lost",
+                self._error(now, _node_name(node), "heartbeat-lost",
                             f"no heartbeat for {(now - seen[0]) / 1e6:.2f} s (timeout "
                             f"{self.HEARTBEAT_TIMEOUT_US / 1e6:.1f} s)")
 
@@ -280,7 +287,7 @@ class HostClient:
         node = P.node_of(cob_id)
         self.emcy_frames += 1
         active = self.emcy_active.setdefault(node, {})
-        source = NODE_NAMES.get(node, str(node))
+        source = _node_name(node)
         if f.error_code == 0:          # error reset: detail = the cleared error code
             active.pop(f.detail, None)
             self._error(now, source, "cleared", f"{P.FaultCode(f.fault_code).name.lower()} "
@@ -294,7 +301,7 @@ class HostClient:
     def _on_Limit(self, cob_id: int, f, now: int) -> None:
         node = P.node_of(cob_id)
         if self.logs:
-            self.logs.status(now, node, NODE_NAMES.get(node, str(node)), "limit", f"flags=0x{f.flags:02X} pos={f.pos_counts}")
+            self.logs.status(now, node, _node_name(node), "limit", f"flags=0x{f.flags:02X} pos={f.pos_counts}")
 
     def _error(self, now: int, source: str, error: str, detail: str) -> None:
         self._errors.append(f"{now / 1e6:.6f} s {source}: {error} {detail}")

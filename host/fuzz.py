@@ -60,6 +60,13 @@ segments:
 
 _I32 = (-(1 << 31), -1, 0, 1, (1 << 31) - 1)
 
+#: Reader objects the fuzzer reads but never writes by SDO: the soft limits (0x2100) and the
+#: encoder offset (0x2101). Writing them moves the limits or the position the limits are
+#: checked against, by design (the alignment console, paper §5.2), so the soft-limit overshoot
+#: measured against the packaged limits would no longer mean "the axis did not stop"; their
+#: range checks are tested in tests/test_canopen_*.py.
+ALIGNMENT_OBJECTS = (0x2100, 0x2101)
+
 
 class FrameGenerator:
     """Random and adversarial frames for every board, reproducible from ``seed``.
@@ -119,6 +126,8 @@ class FrameGenerator:
                                r.randint(0, 0xFFFF))).to_bytes(2, "little")
             b[3] = r.randint(0, 5)
             b[4:8] = bytes(r.randint(0, 255) for _ in range(4))
+            if int.from_bytes(b[1:3], "little") in ALIGNMENT_OBJECTS and b[0] & 0xE0 == 0x20:
+                b[0] = 0x40     # read, never write, the soft limits and encoder offset (see below)
         elif aid in (P.limit_cob_id(3), P.limit_cob_id(4)):
             b[0] = 2
             b[1] = r.randint(0, 2)
@@ -256,6 +265,12 @@ def run_fuzz(frames: int, seed: int = 0, *, stop_every: int = 20_000,
         commander.send(can.Message(arbitration_id=P.nmt_cob_id(), is_extended_id=False,
                                    data=P.encode_nmt(P.NmtCommand.START)))
         _slew_all(commander)
+        # a live host: the commander's CiA heartbeat every second keeps the axes' host watchdog
+        # (2 s, boards/safety.py) fed, so the slews run into the limits under the fuzz traffic
+        hb = can.Message(arbitration_id=P.heartbeat_cob_id(P.NODE_HOST), is_extended_id=False,
+                         data=P.encode_heartbeat(P.NodeState.OPERATIONAL))
+        sched.call_every(1_000_000, lambda now_us: commander.send(hb), start_us=sched.now_us,
+                         owner="fuzz-host-heartbeat")
         while sent < frames:
             try:
                 # first half of each block: the axes slew toward their high limits while every

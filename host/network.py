@@ -31,6 +31,8 @@ Decisions written down here:
 
 from __future__ import annotations
 
+import dataclasses
+
 import itertools
 from dataclasses import dataclass, field
 from typing import Callable
@@ -118,7 +120,8 @@ class Telescope:
             b, g = self.axis_board(axis), self.gains[axis]
             out[axis] = {"kp_duty_per_arcsec_s": b.kp0, "ki_duty_per_arcsec_s_tick": b.ki0,
                          "u_max": b.u_max, "counter_fraction": b.counter_fraction, "drive_law": b.law_name,
-                         "gains_source": g["source"], **{k: v for k, v in g.items() if k != "source"}}
+                         "gains_source": g["source"], **{k: v for k, v in g.items() if k != "source"},
+                         "safety": dataclasses.asdict(b.safety)}
         return out
 
     def plant_summary(self) -> dict:
@@ -266,7 +269,7 @@ def _axis_settings(b: _Build, i: BoardInstance) -> dict:
     gd = g.as_dict()
     b.gains[i.axis] = {"source": GAINS_SOURCE if cc.kp is None and cc.ki is None else "scenario override",
                        **{f"model_{k}": v for k, v in gd.items() if k not in ("kp", "ki")}}
-    return dict(kp=g.kp if cc.kp is None else cc.kp, ki=g.ki if cc.ki is None else cc.ki,
+    return dict(safety=b.scenario.safety_limits(), kp=g.kp if cc.kp is None else cc.kp, ki=g.ki if cc.ki is None else cc.ki,
                 u_max=1.0 if cc.u_max is None else cc.u_max, counter_fraction=p, law=ap.drive.preload_law,
                 qei_counts_per_rev=int(round(ap.encoders.incremental_counts_per_rev * ap.encoders.roller_ratio)),
                 shunt_ohm=ap.motor.shunt_ohm, overcurrent_a=ap.motor.rated_current_a)
@@ -276,6 +279,7 @@ def _axis_settings(b: _Build, i: BoardInstance) -> dict:
 #: parameter file and the scenario. Kinds without an entry take none.
 SETTINGS: dict[str, Callable[[_Build, BoardInstance], dict]] = {
     "axis_controller": _axis_settings,
+    "position_reader": lambda b, i: {"safety": b.scenario.safety_limits()},
     "focus_controller": lambda b, i: {"encoder_counts_per_rev": b.params.focus.motor_encoder_counts_per_rev},
 }
 

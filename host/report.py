@@ -275,8 +275,13 @@ def _markdown(r: dict) -> str:
     lines += ["", "## How velocity and errors are measured", "", r["method"], ""]
     if r.get("controller"):
         lines += ["## Controller", ""]
+        def fmt(d: dict) -> str:
+            return ", ".join(f"{k} = {v:.6g}" if isinstance(v, float) else f"{k} = {v}"
+                             for k, v in d.items() if not isinstance(v, dict))
         for axis, c in r["controller"].items():
-            lines.append(f"- {axis}: " + ", ".join(f"{k} = {v:.6g}" if isinstance(v, float) else f"{k} = {v}" for k, v in c.items()))
+            lines.append(f"- {axis}: " + fmt(c))
+            if c.get("safety"):
+                lines.append(f"- {axis} safety limits (boards/safety.py; scenario `safety:`): " + fmt(c["safety"]))
         lines.append("")
     if r.get("bus_stats"):
         b = r["bus_stats"]

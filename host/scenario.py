@@ -21,6 +21,9 @@ Example::
 
 from __future__ import annotations
 
+import dataclasses
+import math
+
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -29,7 +32,7 @@ from pydantic import AfterValidator, BaseModel, PrivateAttr, ConfigDict, Field, 
 
 from boards.endat import FRAME_BITS as ENDAT_FRAME_BITS
 from boards.registry import BOARD_NAMES
-from boards.safety import DEFAULT_SAFETY
+from boards.safety import DEFAULT_SAFETY, SafetyLimits
 from bus.errors import ConfigurationError
 from bus.units import check_counter_fraction
 from host.faults import FAULT_KINDS, FAULT_PARAMS, FAULTS, check_fault
@@ -212,6 +215,33 @@ class Fault(_Strict):
         return self
 
 
+def safety_limits(overrides: dict) -> SafetyLimits:
+    """``DEFAULT_SAFETY`` with ``overrides`` (field name -> value).
+
+    Raises
+    ------
+    ValueError
+        Unknown field (the message lists the known ones), a non-finite number, or a value
+        ``SafetyLimits`` refuses.
+    """
+    known = {f.name for f in dataclasses.fields(SafetyLimits)}
+    for key, value in overrides.items():
+        if key not in known:
+            raise ValueError(f"unknown safety key '{key}' (expected one of: {', '.join(sorted(known))})")
+        if value is None and key != "host_watchdog_us":
+            raise ValueError(f"safety.{key}: null is only allowed for host_watchdog_us")
+        if isinstance(value, float) and not math.isfinite(value):
+            raise ValueError(f"safety.{key}: expected a finite number, got {value}")
+    kw = {}
+    for key, value in overrides.items():
+        if value is not None and (key.endswith("_us") or key.endswith("_ticks")):
+            if not float(value).is_integer():
+                raise ValueError(f"safety.{key}: expected an integer, got {value}")
+            value = int(value)
+        kw[key] = value
+    return dataclasses.replace(DEFAULT_SAFETY, **kw)
+
+
 class Scenario(_Strict):
     """A validated scenario. Build with :func:`load_scenario`."""
 
@@ -221,6 +251,9 @@ class Scenario(_Strict):
     bus: BusConfig = Field(default_factory=BusConfig)
     plant: PlantConfig = Field(default_factory=PlantConfig)
     controller: ControllerConfig = Field(default_factory=ControllerConfig)
+    #: Overrides of the firmware's safety limits (``boards.safety.SafetyLimits`` field names:
+    #: watchdog times, braking ramp, bounds; ``host_watchdog_us: null`` disables the host watchdog).
+    safety: dict[str, float | int | None] = Field(default_factory=dict, max_length=32)
     log: LogConfig = Field(default_factory=LogConfig)
     rs232: Rs232Config = Field(default_factory=Rs232Config)
     report: ReportConfig = Field(default_factory=ReportConfig)
@@ -230,6 +263,16 @@ class Scenario(_Strict):
     #: (plant section, source path, parameters) resolved when the scenario was loaded, so the
     #: parameter file is read once; a copy with another plant section resolves again.
     _resolved: tuple | None = PrivateAttr(default=None)
+
+    @field_validator("safety")
+    @classmethod
+    def _check_safety(cls, d: dict) -> dict:
+        safety_limits(d)                       # raises ValueError naming the key
+        return d
+
+    def safety_limits(self) -> SafetyLimits:
+        """The firmware's :class:`boards.safety.SafetyLimits` with this scenario's overrides."""
+        return safety_limits(self.safety)
 
     @field_validator("segments")
     @classmethod

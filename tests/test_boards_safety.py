@@ -22,13 +22,19 @@ from host.network import build_network
 from host.scenario import parse_scenario
 
 
-def make(**kw):
+def make(host_heartbeat=True, **kw):
+    """An axis controller on a toy plant; ``host_heartbeat``: a live host sends its CiA heartbeat
+    (0x710) every second from t = 0, which keeps the default 2 s host watchdog fed."""
     s = Scheduler()
     bus = FakeBus()
     plant = ToyAxis(s)
     ax = AxisController(s, bus, 1, read_qei_counts=plant.qei_counts, on_duties=plant.set_duties, **kw)
     ax.start()
     nmt_start(ax)
+    if host_heartbeat:
+        hb = p.encode_heartbeat(p.NodeState.OPERATIONAL)
+        s.call_every(1_000_000, lambda now_us: bus.inject(p.heartbeat_cob_id(p.NODE_HOST), hb),
+                     start_us=s.now_us)
     return s, bus, plant, ax
 
 
@@ -122,10 +128,54 @@ def test_a_single_spoofed_limit_frame_expires():
     assert ax.mode == AxisMode.SLEW
 
 
+def test_a_spoofed_no_limit_frame_does_not_release_an_active_limit():
+    """A "no limit" LIMIT frame while the reader's POSITION frames still carry the limit bit: the
+    limit stays active and SLEW toward it is refused (found by the 10⁶-frame fuzz, docs/faults.md)."""
+    s, bus, plant, ax = make()
+    high = p.LimitFlags.HIGH_SOFT_LIMIT
+    bus.inject(p.position_cob_id(3), p.encode_position(p.PositionFlags.HIGH_LIMIT, 0, 0))
+    bus.inject(p.limit_cob_id(3), p.encode_limit(0, high, 0))
+    bus.inject(p.limit_cob_id(3), p.encode_limit(0, 0, 0))           # the spoof
+    command(bus, p.AxisCommand.SLEW, 1)
+    assert ax.mode == AxisMode.STOP and ax.limit_flags & high
+    # the reader clears both: POSITION without the bit, then LIMIT 0 -> released
+    bus.inject(p.position_cob_id(3), p.encode_position(0, 0, 0))
+    bus.inject(p.limit_cob_id(3), p.encode_limit(0, 0, 0))
+    command(bus, p.AxisCommand.SLEW, 1)
+    assert ax.mode == AxisMode.SLEW
+
+
+def test_a_position_frame_limit_bit_alone_brakes_a_slewing_axis():
+    """The limit bit of a POSITION frame starts braking even if the LIMIT frame is lost."""
+    s, bus, plant, ax = make()
+    command(bus, p.AxisCommand.SLEW, 1)
+    s.run_until(300_000)
+    assert ax.mode == AxisMode.SLEW
+    bus.inject(p.position_cob_id(3), p.encode_position(p.PositionFlags.HIGH_LIMIT, 0, 0))
+    assert ax.mode == AxisMode.LIMIT_STOP and ax.braking
+
+
 # ------------------------------------------------------------------ defect 4: host watchdog
+def test_host_watchdog_is_on_by_default_and_armed_by_the_first_host_frame():
+    """Default safety limits: no host frame at all -> nothing raised; after a host frame, silence
+    longer than the default 2 s brakes a slewing axis (issue 11 defect 4)."""
+    s, bus, plant, ax = make(host_heartbeat=False)
+    assert ax.safety.host_watchdog_us == RECOMMENDED_HOST_WATCHDOG_US
+    s.run_until(3 * RECOMMENDED_HOST_WATCHDOG_US)
+    assert not ax.host_timed_out
+    assert not [x for x in faults(bus) if x.code == p.FaultCode.HOST_TIMEOUT]
+    t0 = s.now_us
+    command(bus, p.AxisCommand.SLEW)
+    s.run_until(t0 + RECOMMENDED_HOST_WATCHDOG_US - 5_000)
+    assert ax.mode == AxisMode.SLEW
+    s.run_until(t0 + RECOMMENDED_HOST_WATCHDOG_US + 10_000)
+    assert ax.mode == AxisMode.STOP and ax.braking and ax.host_timed_out
+
+
 def test_host_watchdog_stops_a_slewing_axis_and_reports_it():
     """Host silent after SLEW: the axis brakes once the watchdog time has passed, FAULT HOST_TIMEOUT."""
-    s, bus, plant, ax = make(safety=SafetyLimits(host_watchdog_us=RECOMMENDED_HOST_WATCHDOG_US))
+    s, bus, plant, ax = make(host_heartbeat=False,
+                             safety=SafetyLimits(host_watchdog_us=RECOMMENDED_HOST_WATCHDOG_US))
     command(bus, p.AxisCommand.SLEW)
     s.run_until(RECOMMENDED_HOST_WATCHDOG_US - 5_000)
     assert ax.mode == AxisMode.SLEW
@@ -139,7 +189,7 @@ def test_host_watchdog_stops_a_slewing_axis_and_reports_it():
 
 def test_host_heartbeats_keep_the_watchdog_quiet():
     """A host HEARTBEAT (0x710) every second keeps a slewing axis going."""
-    s, bus, plant, ax = make(safety=SafetyLimits(host_watchdog_us=2_000_000))
+    s, bus, plant, ax = make(host_heartbeat=False, safety=SafetyLimits(host_watchdog_us=2_000_000))
     command(bus, p.AxisCommand.SLEW)
     hb = p.encode_heartbeat(p.NodeState.OPERATIONAL)
     s.call_every(1_000_000, lambda now: bus.inject(p.heartbeat_cob_id(0x10), hb))
@@ -211,6 +261,11 @@ def telescope_at(angle_deg):
     host = SimBus(network=tel.network, name="test-host")
     host.send(can.Message(arbitration_id=p.nmt_cob_id(), is_extended_id=False,
                           data=p.encode_nmt(p.NmtCommand.START)))     # boards boot PRE-OPERATIONAL
+    # a live host: its CiA heartbeat every second keeps the axes' host watchdog (2 s) fed
+    hb = can.Message(arbitration_id=p.heartbeat_cob_id(p.NODE_HOST), is_extended_id=False,
+                     data=p.encode_heartbeat(p.NodeState.OPERATIONAL))
+    tel.scheduler.call_every(1_000_000, lambda now_us: host.send(hb), start_us=tel.scheduler.now_us,
+                             owner="test-host-heartbeat")
     return tel, host
 
 

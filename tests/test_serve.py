@@ -65,6 +65,10 @@ def _ra_rates(frames: list[can.Message], window_s: float = 0.1) -> tuple[float, 
     return mean, windows
 
 
+def _host_heartbeat():
+    return _msg(P.heartbeat_cob_id(P.NODE_HOST), P.encode_heartbeat(P.NodeState.OPERATIONAL))
+
+
 @pytest.fixture
 def scenario():
     return load_scenario(DEFAULT_SCENARIO)
@@ -94,6 +98,8 @@ def test_external_python_host_on_the_in_process_bus(scenario):
             assert (sdo.command, sdo.index, sdo.data >> 16) == (0x43, 0x1000, P.DEVICE_TYPE_OF_NODE[node])
             assert t_ping_s < m.timestamp < t_ping_s + 0.002, (node, m)
         ext.send(_nmt_start())
+        # a live host: its CiA heartbeat every second keeps the axes' 2 s host watchdog fed
+        sched.call_every(1_000_000, lambda now_us: ext.send(_host_heartbeat()), start_us=sched.now_us)
         sched.run_until(1_100_000)                       # past the 1 s heartbeats
         beats = {P.node_of(m.arbitration_id): P.decode(m.arbitration_id, bytes(m.data)).state
                  for m in _drain(ext) if P.frame_kind(m.arbitration_id) == "HEARTBEAT"}
@@ -235,6 +241,44 @@ def test_cli_serve_rejects_a_bad_duration(tmp_path, capsys):
     """--duration must be positive: one-line error before anything is built."""
     assert main(["serve", "--out", str(tmp_path / "x"), "--duration", "0"]) == 1
     assert "--duration must be > 0" in capsys.readouterr().err
+
+
+def test_an_external_host_that_falls_silent_sees_the_axis_stop(scenario):
+    """Issue 11: the in-process set-up of docs/serve.md (built-in host client passive); an external
+    host starts the nodes, sends SLEW to RA and then nothing. The axis slews until the host
+    watchdog (2 s after the SLEW, boards/safety.py) brakes it, reports EMCY HOST_TIMEOUT, and is
+    at rest (plant truth) within the watchdog time plus the braking ramp from slew (0.5 s) and
+    the supervisor's 200 ms grace."""
+    from boards.safety import DEFAULT_SAFETY
+    tel = build_network(scenario)
+    ext = can.Bus(interface="schmidt-sim", channel=tel.network.channel)
+    sched, plant = tel.scheduler, tel.plants["ra"]
+    wd_us = DEFAULT_SAFETY.host_watchdog_us
+    try:
+        sched.run_until(300_000)
+        ext.send(_nmt_start())
+        sched.run_until(400_000)
+        _drain(ext)
+        ext.send(_msg(P.axis_command_cob_id(P.NODE_RA_AXIS),
+                      P.encode_axis_command(P.AxisCommand.SLEW, 1, 0)))
+        t_slew = sched.now_us
+        sched.run_until(t_slew + wd_us - 100_000)
+        assert abs(plant.axis_rate_arcsec_s) > 5_000            # slewing while the watchdog runs
+        stopped_at = None
+        while sched.now_us < t_slew + wd_us + 1_500_000:
+            sched.run_until(sched.now_us + 10_000)
+            if stopped_at is None and abs(plant.axis_rate_arcsec_s) < DEFAULT_SAFETY.brake_stop_tol_arcsec_s:
+                stopped_at = sched.now_us
+        assert stopped_at is not None
+        assert t_slew + wd_us < stopped_at <= t_slew + wd_us + 700_000 + 50_000
+        emcy = [P.decode(m.arbitration_id, bytes(m.data)) for m in _drain(ext)
+                if m.arbitration_id == P.emcy_cob_id(P.NODE_RA_AXIS)]
+        assert [(e.fault_code, e.detail) for e in emcy
+                if e.fault_code == P.FaultCode.HOST_TIMEOUT] == [(P.FaultCode.HOST_TIMEOUT, wd_us // 1000)]
+        assert tel.boards["ra-axis"].host_timed_out
+    finally:
+        ext.shutdown()
+        tel.close()
 
 
 def test_docs_serve_in_process_example_runs_verbatim(capsys, monkeypatch):

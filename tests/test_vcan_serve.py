@@ -78,8 +78,15 @@ def served(tmp_path_factory):
             _wait_for(q, "serving on", START_TIMEOUT_S, stdout)
             start_s = time.monotonic() - t_start
 
+            hb = can.Message(arbitration_id=P.heartbeat_cob_id(P.NODE_HOST), is_extended_id=False,
+                             data=P.encode_heartbeat(P.NodeState.OPERATIONAL))
+            last_hb = [0.0]
+
             def collect(until) -> None:
                 while not until():
+                    if time.monotonic() - last_hb[0] >= 0.5:     # a live host: heartbeat (2 s host watchdog)
+                        host.send(hb)
+                        last_hb[0] = time.monotonic()
                     m = host.recv(0.05)
                     if m is not None:
                         got.append((time.monotonic(), m))
