@@ -98,6 +98,10 @@ STATUS_LIMIT, STATUS_ANTIWINDUP, STATUS_OVERCURRENT, STATUS_FAULT = (
 POS_INVALID_FLAG = int(proto.PositionFlags.INVALID)
 POS_LOW_FLAG = int(proto.PositionFlags.LOW_LIMIT)
 POS_HIGH_FLAG = int(proto.PositionFlags.HIGH_LIMIT)
+POS_LOW_NEAR_FLAG = int(proto.PositionFlags.LOW_NEAR)
+POS_HIGH_NEAR_FLAG = int(proto.PositionFlags.HIGH_NEAR)
+LIMIT_LOW_NEAR_FLAG = int(proto.LimitFlags.LOW_NEAR)
+LIMIT_HIGH_NEAR_FLAG = int(proto.LimitFlags.HIGH_NEAR)
 LIMIT_LOW, LIMIT_HIGH, LIMIT_INVALID = (
     int(f) for f in (proto.LimitFlags.LOW_SOFT_LIMIT, proto.LimitFlags.HIGH_SOFT_LIMIT,
                      proto.LimitFlags.POSITION_INVALID))
@@ -238,6 +242,9 @@ class AxisController(Board):
         self.limit_flags = 0              # effective: LIMIT-frame flags | POSITION-frame flags
         self._limit_frame_flags = 0       # from the reader's LIMIT frames (repeated every 100 ms)
         self._pos_limit_flags = 0         # from the limit bits of its POSITION frames (every 10 ms)
+        self._frame_near = 0              # approach-zone bits (as LIMIT_LOW/HIGH) from LIMIT frames
+        self._pos_near = 0                # ... and from POSITION frames
+        self._applied_sp = 0.0            # the setpoint the PI last ran with, ″/s
         self.position_invalid = False
         self.limit_refusals = 0
         # braking and supervision (boards/safety.py)
@@ -315,8 +322,10 @@ class AxisController(Board):
         if (self.tripped or self.brake_cut
                 or (self.mode == AxisMode.LIMIT_STOP and self.limit_stop_mode == "coast")):
             self.pi.force(0.0)
+            self._applied_sp = self.omega_arcsec_s
         elif self.mode == AxisMode.OPEN_LOOP:
             self.pi.force(self.open_loop_u, 0.0)
+            self._applied_sp = self.omega_arcsec_s
         else:
             if (not self.braking and self.mode in (AxisMode.STOP, AxisMode.LIMIT_STOP)
                     and abs(self.omega_arcsec_s) > self.safety.brake_stop_tol_arcsec_s):
@@ -324,7 +333,12 @@ class AxisController(Board):
             if self.braking:
                 self._brake_tick(now_us)
             if not self.brake_cut:
-                self.pi.update(self.setpoint_arcsec_s - self.omega_arcsec_s)
+                sp = self.setpoint_arcsec_s
+                near = self._frame_near | self._pos_near
+                if near and not self.braking and ((sp > 0 and near & LIMIT_HIGH) or (sp < 0 and near & LIMIT_LOW)):
+                    sp = self._approach(sp)
+                self._applied_sp = sp
+                self.pi.update(sp - self.omega_arcsec_s)
             else:
                 self.pi.force(0.0)
         self._write_outputs()
@@ -360,8 +374,8 @@ class AxisController(Board):
                 self._brake(AxisMode.STOP)
         else:
             self._overspeed_ticks = 0
-        if self._limit_frame_flags and now_us - self._limit_us > sf.limit_expiry_us:
-            self._limit_frame_flags = 0                # LIMIT frames stopped: the state expires
+        if (self._limit_frame_flags or self._frame_near) and now_us - self._limit_us > sf.limit_expiry_us:
+            self._limit_frame_flags = self._frame_near = 0   # LIMIT frames stopped: the state expires
             self._apply_limits()
         if self._pos_limit_flags and now_us - self._reader_us > sf.limit_expiry_us:
             self._pos_limit_flags = 0                  # POSITION frames stopped: likewise
@@ -396,7 +410,10 @@ class AxisController(Board):
         self.open_loop_u = 0.0
         if not self.braking:
             self.braking = True
-            self.brake_sp = self.omega_arcsec_s
+            # ramp from the measured rate, but never from above the rate the PI was running
+            # at (a hold that moves, a QEI glitch: the ramp must not ask for more speed)
+            w, cap = self.omega_arcsec_s, abs(self._applied_sp)
+            self.brake_sp = w if abs(w) <= cap else (cap if w > 0 else -cap)
             self._brake_bad = 0
             self._rest_us = 0
             self._brake_ramp_end_us = (self.scheduler.now_us
@@ -429,6 +446,15 @@ class AxisController(Board):
         elif self._rest_us >= sf.brake_rest_us:
             self.braking = False                          # at rest: PI holds zero rate
 
+    def _approach(self, sp: float) -> float:
+        """Setpoint toward a limit inside its approach zone: the speed toward it may rise by at
+        most the braking deceleration (boards/safety.py), so the reader's braking zone, computed
+        from the rate it measures, is never outrun by a step of the setpoint (docs/faults.md)."""
+        a, step = self._applied_sp, self._brake_step
+        if abs(sp) <= abs(a) and sp * a >= 0:
+            return sp                                   # slowing down (or same): at once
+        return min(sp, a + step) if sp > 0 else max(sp, a - step)
+
     def _write_outputs(self) -> None:
         if self.tripped or self.brake_cut:
             self.pwm.set_duties(0.0, 0.0)
@@ -455,6 +481,8 @@ class AxisController(Board):
             self.reader_seen = True
             self._reader_us = self.scheduler.now_us
             self.reader_invalid = bool(pos.flags & POS_INVALID_FLAG)
+            self._pos_near = ((LIMIT_LOW if pos.flags & POS_LOW_NEAR_FLAG else 0)
+                              | (LIMIT_HIGH if pos.flags & POS_HIGH_NEAR_FLAG else 0))
             flags = ((LIMIT_LOW if pos.flags & POS_LOW_FLAG else 0)
                      | (LIMIT_HIGH if pos.flags & POS_HIGH_FLAG else 0))
             if flags != self._pos_limit_flags:
@@ -573,6 +601,8 @@ class AxisController(Board):
         """A LIMIT frame from the axis's reader."""
         self.position_invalid = bool(flags & LIMIT_INVALID)
         self._limit_frame_flags = flags & (LIMIT_LOW | LIMIT_HIGH)
+        self._frame_near = ((LIMIT_LOW if flags & LIMIT_LOW_NEAR_FLAG else 0)
+                            | (LIMIT_HIGH if flags & LIMIT_HIGH_NEAR_FLAG else 0))
         self._apply_limits(flags)
 
     def _apply_limits(self, detail: int | None = None) -> None:

@@ -55,7 +55,9 @@ ARCSEC_PER_COUNT = ARCSEC_PER_REV / COUNTS_PER_REV
 DEFAULT_LIMITS_DEG = {0: (-95.0, 95.0), 1: (-40.0, 110.0)}
 
 POS_LOW, POS_HIGH, POS_CRC, POS_INVALID = 0x01, 0x02, 0x04, 0x08
+POS_LOW_NEAR, POS_HIGH_NEAR = 0x10, 0x20
 LIMIT_LOW, LIMIT_HIGH, LIMIT_INVALID = 0x01, 0x02, 0x04
+LIMIT_LOW_NEAR, LIMIT_HIGH_NEAR = 0x08, 0x10
 CRC_FAULT_MIN_INTERVAL_US = 1_000_000
 
 
@@ -112,6 +114,7 @@ class PositionReader(Board):
         if not self.low_limit_deg < self.high_limit_deg:
             raise ValueError("low_limit_deg must be below high_limit_deg")
         self.hysteresis_arcsec = float(hysteresis_arcsec)
+        self._near_deg = safety.braking_distance_arcsec(safety.max_rate_arcsec_s) / 3600.0
         self.read_period_us = int(read_period_us)
         self.limit_repeat_us = int(limit_repeat_us)
         self.offset_counts = int(offset_counts) % COUNTS_PER_REV
@@ -136,6 +139,7 @@ class PositionReader(Board):
         self.last_crc_error = False
         self.alarm = False
         self.limit_flags = 0
+        self.near_flags = 0           # LIMIT_LOW/LIMIT_HIGH bits: inside the approach zone
         self._limit_sent_flags = 0
         self._limit_sent_us: Optional[int] = None
         self._crc_fault_us: Optional[int] = None
@@ -177,6 +181,10 @@ class PositionReader(Board):
     def position_flags(self) -> int:
         """POSITION flags byte."""
         f = self.limit_flags & (POS_LOW | POS_HIGH)
+        if self.near_flags & LIMIT_LOW:
+            f |= POS_LOW_NEAR
+        if self.near_flags & LIMIT_HIGH:
+            f |= POS_HIGH_NEAR
         if self.last_crc_error:
             f |= POS_CRC
         if not self.have_position or self.alarm:
@@ -186,6 +194,10 @@ class PositionReader(Board):
     def limit_frame_flags(self) -> int:
         """LIMIT flags byte."""
         f = self.limit_flags & (LIMIT_LOW | LIMIT_HIGH)
+        if self.near_flags & LIMIT_LOW:
+            f |= LIMIT_LOW_NEAR
+        if self.near_flags & LIMIT_HIGH:
+            f |= LIMIT_HIGH_NEAR
         if not self.have_position or self.alarm:
             f |= LIMIT_INVALID
         return f
@@ -244,6 +256,19 @@ class PositionReader(Board):
         elif a < self.high_limit_deg - h and v < tol:
             f &= ~LIMIT_HIGH
         self.limit_flags = f
+        # approach zone: within the braking distance of the highest commanded rate; the axis
+        # controller ramps its setpoint toward a limit there (boards/safety.py)
+        near = self._near_deg
+        n = self.near_flags
+        if a <= self.low_limit_deg + near:
+            n |= LIMIT_LOW
+        elif a > self.low_limit_deg + near + h:
+            n &= ~LIMIT_LOW
+        if a >= self.high_limit_deg - near:
+            n |= LIMIT_HIGH
+        elif a < self.high_limit_deg - near - h:
+            n &= ~LIMIT_HIGH
+        self.near_flags = n
 
     def _background(self, now_us: int) -> None:
         queue = []

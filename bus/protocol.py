@@ -233,6 +233,8 @@ class LimitFlags(IntFlag):
     LOW_SOFT_LIMIT = 1
     HIGH_SOFT_LIMIT = 2
     POSITION_INVALID = 4
+    LOW_NEAR = 8       #: within the braking distance of the highest commanded rate of the low limit
+    HIGH_NEAR = 16     #: the same for the high limit (boards/safety.py approach zone)
 
 
 class AxisStatusFlags(IntFlag):
@@ -251,6 +253,8 @@ class PositionFlags(IntFlag):
     HIGH_LIMIT = 2
     CRC_ERROR = 4
     INVALID = 8
+    LOW_NEAR = 16      #: as LimitFlags.LOW_NEAR
+    HIGH_NEAR = 32     #: as LimitFlags.HIGH_NEAR
 
 
 class FocusFlags(IntFlag):
@@ -551,7 +555,7 @@ def encode_limit(axis: int, flags: int, pos_counts: int) -> bytes:
     f = "LIMIT"
     _enum_or_raise(_AXIS, axis, f, "axis", EncodeError)
     try:
-        _flags(f, "flags", flags, 0x07)
+        _flags(f, "flags", flags, 0x1F)
         return _S_LIMIT.pack(_DT_READER, axis, flags, pos_counts & _POS_MASK)
     except (struct.error, TypeError) as exc:
         raise _not_int(f, exc) from None
@@ -644,7 +648,7 @@ def encode_position(flags: int, crc_errors: int, pos_counts: int) -> bytes:
     29-bit absolute position (wraps)."""
     f = "POSITION"
     try:
-        _flags(f, "flags", flags, 0x0F)
+        _flags(f, "flags", flags, 0x3F)
         return _S_POSITION.pack(_DT_READER, flags, _clamp(crc_errors, 0, 0xFFFF), pos_counts & _POS_MASK)
     except (struct.error, TypeError) as exc:
         raise _not_int(f, exc) from None
@@ -886,8 +890,8 @@ _add(FrameSpec("STOP_ALL", FC_STOP_ALL, (None,), "host", None, (
 
 _add(FrameSpec("LIMIT", FC_LIMIT, READER_NODES, "node", None, (
     Field("axis", 1, 8, False, 0, 1, "enum", enum=Axis),
-    Field("flags", 2, 8, False, 0, 7, "flags", flag_names=("low_soft_limit", "high_soft_limit",
-                                                            "position_invalid")),
+    Field("flags", 2, 8, False, 0, 31, "flags", flag_names=("low_soft_limit", "high_soft_limit",
+                                                             "position_invalid", "low_near", "high_near")),
     Field("pos_counts", 4, 29, False, 0, (1 << 29) - 1, "wrap", unit="counts",
           dbc_unit="counts", doc="29-bit absolute position, 2**29 per revolution"),
 ), Limit, encode_limit, decode_limit,
@@ -917,8 +921,9 @@ _add(FrameSpec("AXIS_STATUS", FC_STATUS, AXIS_NODES, "node", AXIS_STATUS_PERIOD_
 ), AxisStatus, encode_axis_status, decode_axis_status, "axis controller to host, every 10 ms"))
 
 _add(FrameSpec("POSITION", FC_STATUS, READER_NODES, "node", POSITION_PERIOD_US, (
-    Field("flags", 1, 8, False, 0, 15, "flags", flag_names=("low_limit", "high_limit",
-                                                             "crc_error", "invalid")),
+    Field("flags", 1, 8, False, 0, 63, "flags", flag_names=("low_limit", "high_limit",
+                                                             "crc_error", "invalid", "low_near",
+                                                             "high_near")),
     Field("crc_errors", 2, 16, False, 0, 0xFFFF, "clamp", unit="reads"),
     Field("pos_counts", 4, 29, False, 0, (1 << 29) - 1, "wrap", unit="counts", dbc_unit="counts",
           doc="29-bit absolute position, 2**29 per revolution"),

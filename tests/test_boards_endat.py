@@ -147,20 +147,45 @@ def test_crc_error_keeps_last_good_position_and_flags_it():
 
 
 def test_limit_frames_on_change_and_every_100_ms_while_active():
-    """Entering the high limit sends LIMIT at once, then every 100 ms; leaving sends one clear."""
-    word = [deg_to_counts(94.0)]
+    """Entering the high limit sends LIMIT at once, then every 100 ms; leaving sends one clear.
+    (93.0° is outside the approach zone of 1.245°; 95.5° is inside both zones.)"""
+    word = [deg_to_counts(93.0)]
     s, bus, r = make_reader(word)
     s.run_until(50_000)
     assert bus.frames(p.limit_cob_id(3)) == []
     word[0] = deg_to_counts(95.5)
     s.run_until(360_000)                    # entered at 60 ms → frames at 60, 160, 260, 360 ms
     lims = [p.decode_limit(m.data) for m in bus.frames(p.limit_cob_id(3))]
-    assert len(lims) == 4 and all(l.flags == p.LimitFlags.HIGH_SOFT_LIMIT for l in lims)
+    both = p.LimitFlags.HIGH_SOFT_LIMIT | p.LimitFlags.HIGH_NEAR
+    assert len(lims) == 4 and all(l.flags == both for l in lims)
     assert lims[0].axis == p.Axis.RA
-    word[0] = deg_to_counts(95.0 - 20 / 3600)   # inside by 20″ > 10″ hysteresis
+    word[0] = deg_to_counts(93.0)           # back outside both zones
     s.run_until(600_000)
     lims = [p.decode_limit(m.data) for m in bus.frames(p.limit_cob_id(3))]
     assert len(lims) == 5 and lims[-1].flags == 0
+
+
+def test_approach_zone_flags_in_position_and_limit_frames():
+    """Within the braking distance of the highest commanded rate (boards/safety.py: 3°/s →
+    1.245°) of a limit, POSITION and LIMIT frames carry the near bit; the soft-limit bit only
+    where braking must begin; the near bit clears outside the zone plus the hysteresis."""
+    from boards.safety import DEFAULT_SAFETY
+    near_deg = DEFAULT_SAFETY.braking_distance_arcsec(DEFAULT_SAFETY.max_rate_arcsec_s) / 3600
+    assert near_deg == pytest.approx(1.245, abs=0.001)
+    word = [deg_to_counts(95.0 - near_deg + 0.01)]
+    s, bus, r = make_reader(word)
+    s.run_until(20_000)
+    pos = p.decode_position(bus.frames(p.position_cob_id(3))[-1].data)
+    assert pos.flags == p.PositionFlags.HIGH_NEAR
+    lim = p.decode_limit(bus.frames(p.limit_cob_id(3))[-1].data)
+    assert lim.flags == p.LimitFlags.HIGH_NEAR
+    word[0] = deg_to_counts(95.0 - near_deg - 5 / 3600)       # outside by 5″ < 10″ hysteresis
+    s.run_until(40_000)
+    assert p.decode_position(bus.frames(p.position_cob_id(3))[-1].data).flags == p.PositionFlags.HIGH_NEAR
+    word[0] = deg_to_counts(95.0 - near_deg - 15 / 3600)
+    s.run_until(60_000)
+    assert p.decode_position(bus.frames(p.position_cob_id(3))[-1].data).flags == 0
+    assert p.decode_limit(bus.frames(p.limit_cob_id(3))[-1].data).flags == 0
 
 
 def test_low_limit_and_hysteresis():

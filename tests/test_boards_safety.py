@@ -284,6 +284,25 @@ def run_max_angle(tel, until_us):
     return top
 
 
+@pytest.mark.parametrize("start_deg, cmd, value", [
+    (94.5, p.AxisCommand.SLEW, 0), (94.0, p.AxisCommand.SLEW, 0), (94.8, p.AxisCommand.SET, 0),
+    (94.0, p.AxisCommand.VELOCITY, 10_800_000),      # the highest commanded rate, 3°/s (milli-″/s)
+])
+def test_motion_started_at_rest_near_the_limit_stops_before_it(start_deg, cmd, value):
+    """At rest inside the approach zone, a fast command toward the limit: the setpoint ramps at
+    the braking deceleration, so the reader's rate-based zone is not outrun by the PI's step
+    response (the fuzz found DEC 350″ past its limit after a SLEW from rest 0.54° short of it)."""
+    tel, host = telescope_at(start_deg)
+    try:
+        tel.scheduler.run_until(200_000)
+        send(host, cmd, +1, value)
+        top = run_max_angle(tel, 4_000_000)
+        assert start_deg < top < 95.0
+        assert abs(tel.plants["ra"].axis_rate_arcsec_s) < 50.0
+    finally:
+        tel.close()
+
+
 def test_slew_into_the_soft_limit_stops_before_it():
     """SLEW toward +95°: the axis (plant truth) stops before 95°, within 1.3 braking zones of it."""
     tel, host = telescope_at(88.0)
