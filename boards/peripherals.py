@@ -305,6 +305,7 @@ class CanController:
         self.tx_errors = 0
         self.interrupt_enabled = False
         self.has_rx_interrupt = hasattr(bus, "set_rx_callback")
+        self._send_frame = getattr(bus, "send_frame", None)
 
     def enable_rx_interrupt(self) -> bool:
         """Hook the receive interrupt if the bus supports it; returns True if it does."""
@@ -365,10 +366,16 @@ class CanController:
         self._service()
 
     def send(self, arbitration_id: int, data: bytes) -> bool:
-        """Transmit a standard-identifier data frame; returns False (and counts) on a bus error."""
-        msg = can.Message(arbitration_id=arbitration_id, data=data, is_extended_id=False)
+        """Transmit a standard-identifier data frame; returns False (and counts) on a bus error.
+
+        On a bus with ``send_frame(id, data)`` (``schmidt-sim``) no ``can.Message`` is built.
+        """
         try:
-            self.bus.send(msg)
+            send_frame = self._send_frame
+            if send_frame is not None:
+                send_frame(arbitration_id, data)
+            else:
+                self.bus.send(can.Message(arbitration_id=arbitration_id, data=data, is_extended_id=False))
         except can.CanError:
             self.tx_errors += 1
             return False

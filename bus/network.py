@@ -49,6 +49,7 @@ from functools import lru_cache
 
 import can
 
+from bus import bitkernel as _bitkernel
 from bus.errors import BusError
 from bus.scheduler import PRIO_CAN, Scheduler
 
@@ -159,26 +160,9 @@ def frame_bits_unstuffed(data_len: int) -> int:
     return 47 + 8 * data_len
 
 
-@lru_cache(maxsize=8192)
-def frame_bits(arbitration_id: int, data: bytes) -> int:
-    """Exact length in bits of a CAN 2.0A data frame on the wire, including stuff bits.
-
-    SOF, 11-bit identifier, RTR, IDE, r0, 4-bit DLC, data, 15-bit CRC (computed), then the stuff
-    bits counted over SOF..end of CRC, then CRC delimiter, ACK slot, ACK delimiter, 7 EOF bits
-    and the 3-bit intermission. An 8-byte frame is 111 bits unstuffed, at most 135.
-
-    Parameters
-    ----------
-    arbitration_id : int
-        Standard identifier, 0..0x7FF.
-    data : bytes
-        0..8 data bytes (must be hashable: ``bytes``, not ``bytearray``; results are cached).
-
-    Returns
-    -------
-    int
-        Bit count (= µs at 1 Mbit/s).
-    """
+def _frame_bits_tables(arbitration_id: int, data: bytes) -> int:
+    """:func:`frame_bits` computed with 16-bit CRC and stuffing tables, interpreted (used when
+    numba is not available; same arguments, result and errors)."""
     n = len(data)
     if not 0 <= arbitration_id <= 0x7FF or n > 8:
         raise BusError(f"frame_bits: need an 11-bit id and <= 8 data bytes, got "
@@ -213,6 +197,46 @@ def frame_bits(arbitration_id: int, data: bytes) -> int:
     return nbits + stuffs + 13       # + CRC delim, ACK slot, ACK delim, 7 EOF, 3 IFS
 
 
+@lru_cache(maxsize=8192)
+def frame_bits(arbitration_id: int, data: bytes) -> int:
+    """Exact length in bits of a CAN 2.0A data frame on the wire, including stuff bits.
+
+    SOF, 11-bit identifier, RTR, IDE, r0, 4-bit DLC, data, 15-bit CRC (computed), then the stuff
+    bits counted over SOF..end of CRC, then CRC delimiter, ACK slot, ACK delimiter, 7 EOF bits
+    and the 3-bit intermission. An 8-byte frame is 111 bits unstuffed, at most 135.
+
+    Computed by the compiled bit-serial kernel :func:`bus.bitkernel.frame_bits_kernel` when numba
+    is available (≈ 0.5 µs; a miss of the cache below happens for most status frames, whose data
+    change every period), else by the table-driven :func:`_frame_bits_tables` (≈ 5–10 µs);
+    tests/test_bus_network.py checks that both agree with a bit-by-bit reference.
+
+    Parameters
+    ----------
+    arbitration_id : int
+        Standard identifier, 0..0x7FF.
+    data : bytes
+        0..8 data bytes (must be hashable: ``bytes``, not ``bytearray``; results are cached).
+
+    Returns
+    -------
+    int
+        Bit count (= µs at 1 Mbit/s).
+
+    Raises
+    ------
+    BusError
+        For an identifier above 0x7FF or more than 8 data bytes.
+    """
+    n = len(data)
+    if not 0 <= arbitration_id <= 0x7FF or n > 8:
+        raise BusError(f"frame_bits: need an 11-bit id and <= 8 data bytes, got "
+                       f"id=0x{arbitration_id:X}, {n} bytes")
+    if _bitkernel.JIT:
+        v = int.from_bytes(data, "big")
+        return _bitkernel.frame_bits_kernel(arbitration_id, n, v >> 32, v & 0xFFFFFFFF)
+    return _frame_bits_tables(arbitration_id, data)
+
+
 # ------------------------------------------------------------------------------------------------
 # The network
 # ------------------------------------------------------------------------------------------------
@@ -236,12 +260,48 @@ def get_network(channel: str) -> "CanNetwork":
             f"first (registered: {sorted(_REGISTRY)})") from None
 
 
-class _Pending:
-    __slots__ = ("bus", "msg", "arbitration_id", "data", "submit_us", "seq")
+#: The slots of ``can.Message`` that :func:`_rx_message` fills (python-can 4.x).
+_MESSAGE_SLOTS = frozenset({"timestamp", "arbitration_id", "is_extended_id", "is_remote_frame",
+                            "is_error_frame", "channel", "dlc", "data", "is_fd", "is_rx",
+                            "bitrate_switch", "error_state_indicator"})
+_Message = can.Message
 
-    def __init__(self, bus, msg, arbitration_id, data, submit_us, seq):
+
+def _rx_message_fast(timestamp: float, arbitration_id: int, data: bytes, channel, is_rx: bool):
+    m = _Message.__new__(_Message)
+    m.timestamp = timestamp
+    m.arbitration_id = arbitration_id
+    m.is_extended_id = False
+    m.is_remote_frame = False
+    m.is_error_frame = False
+    m.channel = channel
+    m.dlc = len(data)
+    m.data = bytearray(data)
+    m.is_fd = False
+    m.is_rx = is_rx
+    m.bitrate_switch = False
+    m.error_state_indicator = False
+    return m
+
+
+def _rx_message_init(timestamp: float, arbitration_id: int, data: bytes, channel, is_rx: bool):
+    return _Message(timestamp=timestamp, arbitration_id=arbitration_id, is_extended_id=False,
+                    data=bytearray(data), channel=channel, is_rx=is_rx)
+
+
+#: The received frame as a ``can.Message``, equal to ``can.Message(timestamp=..., arbitration_id=...,
+#: is_extended_id=False, data=bytearray(data), channel=..., is_rx=...)``; built without
+#: ``__init__``'s argument handling (half the cost) when python-can's slots are the known ones,
+#: else by the constructor (tests/test_bus_network.py checks the two agree).
+_rx_message = (_rx_message_fast if set(getattr(_Message, "__slots__", ())) - {"__weakref__"} == _MESSAGE_SLOTS
+               else _rx_message_init)
+
+
+class _Pending:
+    __slots__ = ("bus", "arbitration_id", "data", "submit_us", "seq")
+
+    def __init__(self, bus, arbitration_id, data, submit_us, seq):
         self.bus = bus
-        self.msg = msg
         self.arbitration_id = arbitration_id
         self.data = data
         self.submit_us = submit_us
@@ -349,6 +409,9 @@ class _InjectedNode:
     def __init__(self, name: str) -> None:
         self.name = name
 
+    def _accepts(self, arbitration_id: int) -> bool:
+        return False
+
     def _deliver(self, msg) -> bool:
         return False
 
@@ -392,6 +455,11 @@ class CanNetwork:
         self._arb_scheduled = False
         self._npending = 0
         self._current: _Pending | None = None
+        #: identifier -> ((bus, enqueue), ...): the attached buses whose acceptance filters pass
+        #: that identifier, in attach order, built on first use and dropped whenever a bus is
+        #: attached, detached or changes its filters. Delivery then costs per *accepting*
+        #: receiver, not per attached node.
+        self._rx_table: dict[int, tuple] = {}
         self._start_us = scheduler.now_us
         # statistics
         self.frames = 0
@@ -422,6 +490,7 @@ class CanNetwork:
             self._buses.append(bus)
             self._queues[id(bus)] = deque()
             self._errors[id(bus)] = NodeErrorState(getattr(bus, "name", repr(bus)))
+            self._rx_table.clear()
 
     def detach(self, bus) -> None:
         """Detach a bus; its queued, not yet started frames are dropped."""
@@ -429,6 +498,30 @@ class CanNetwork:
             self._buses.remove(bus)
             self._npending -= len(self._queues.pop(id(bus)))
             self._errors.pop(id(bus), None)
+            self._rx_table.clear()
+
+    def filters_changed(self) -> None:
+        """An attached bus changed its acceptance filters (SimBus calls this from
+        ``set_filters``): the identifier -> receivers table is rebuilt on demand."""
+        self._rx_table.clear()
+
+    def _receivers(self, arbitration_id: int) -> tuple:
+        """``((bus, enqueue), ...)`` for the buses that accept ``arbitration_id``, attach order.
+
+        A bus with ``_accepts(id)`` (SimBus, the babbling node) is listed only if its filters
+        pass the identifier, and then gets the frame through ``_enqueue`` (no second filter
+        check); any other attached object is always listed and gets ``_deliver``, which filters.
+        """
+        out = []
+        for bus in self._buses:
+            accepts = getattr(bus, "_accepts", None)
+            if accepts is None:
+                out.append((bus, bus._deliver))
+            elif accepts(arbitration_id):
+                out.append((bus, bus._enqueue))
+        entry = tuple(out)
+        self._rx_table[arbitration_id] = entry
+        return entry
 
     @property
     def buses(self) -> tuple:
@@ -458,16 +551,36 @@ class CanNetwork:
         BusError
             Extended, remote, error or FD frames, ids > 0x7FF, > 8 bytes, or a detached bus.
         """
-        queue = self._queues.get(id(bus))
-        if queue is None:
-            raise BusError(f"bus {bus!r} is not attached to CanNetwork {self.channel!r}")
         aid = msg.arbitration_id
         if msg.is_extended_id or aid > 0x7FF or aid < 0:
+            if id(bus) not in self._queues:
+                raise BusError(f"bus {bus!r} is not attached to CanNetwork {self.channel!r}")
             raise BusError(f"CAN 2.0A only: 11-bit standard ids (is_extended_id=False), "
                            f"got 0x{aid:X} extended={msg.is_extended_id}")
         if msg.is_remote_frame or msg.is_error_frame or msg.is_fd:
+            if id(bus) not in self._queues:
+                raise BusError(f"bus {bus!r} is not attached to CanNetwork {self.channel!r}")
             raise BusError("remote, error and FD frames are not emulated")
-        data = bytes(msg.data)
+        self.submit_frame(bus, aid, bytes(msg.data))
+
+    def submit_frame(self, bus, arbitration_id: int, data: bytes) -> None:
+        """Queue a standard data frame from ``bus`` given as identifier and ``bytes`` (the fast
+        path of :meth:`submit`, used by ``SimBus.send_frame``: no ``can.Message`` is built).
+
+        Raises
+        ------
+        BusError
+            An identifier outside 0..0x7FF, more than 8 bytes, or a detached bus.
+        can.CanOperationError
+            While the node is bus-off.
+        """
+        queue = self._queues.get(id(bus))
+        if queue is None:
+            raise BusError(f"bus {bus!r} is not attached to CanNetwork {self.channel!r}")
+        aid = arbitration_id
+        if aid > 0x7FF or aid < 0:
+            raise BusError(f"CAN 2.0A only: 11-bit standard ids (is_extended_id=False), "
+                           f"got 0x{aid:X} extended=False")
         if len(data) > 8:
             raise BusError(f"CAN 2.0A carries at most 8 data bytes, got {len(data)}")
         if self._faulty:
@@ -478,7 +591,7 @@ class CanNetwork:
                                             f"(TEC {es.tec}); frame 0x{aid:03X} not sent")
         self._seq += 1
         self._npending += 1
-        queue.append(_Pending(bus, msg, aid, data, self.scheduler.now_us, self._seq))
+        queue.append(_Pending(bus, aid, data, self.scheduler.now_us, self._seq))
         if not self._busy and not self._arb_scheduled:
             self._arb_scheduled = True
             self.scheduler.call_at(self.scheduler.now_us, self._arbitrate, PRIO_CAN,
@@ -566,30 +679,32 @@ class CanNetwork:
         if self._faulty:
             lost = self._after_success(now_us, pending)
 
-        msg = can.Message(timestamp=now_us / 1e6, arbitration_id=pending.arbitration_id,
-                          is_extended_id=False, data=bytearray(pending.data),
-                          channel=self.channel, is_rx=True)
-        for tap in self._taps:
-            tap(msg)
-        interrupts = []
-        for bus in self._buses:
-            if bus is not sender:
-                if lost is not None and bus in lost:
+        aid = pending.arbitration_id
+        receivers = self._rx_table.get(aid)
+        if receivers is None:
+            receivers = self._receivers(aid)
+        taps = self._taps
+        if receivers or taps:
+            msg = _rx_message(now_us / 1e6, aid, pending.data, self.channel, True)
+            for tap in taps:
+                tap(msg)
+            interrupts = []
+            for bus, enqueue in receivers:
+                if bus is not sender:
+                    if lost is not None and bus in lost:
+                        continue
+                    fire = enqueue(msg)
+                elif getattr(bus, "receive_own_messages", False):
+                    fire = enqueue(_rx_message(msg.timestamp, aid, pending.data, self.channel, False))
+                else:
                     continue
-                fire = bus._deliver(msg)
-            elif getattr(bus, "receive_own_messages", False):
-                fire = bus._deliver(can.Message(timestamp=msg.timestamp, arbitration_id=msg.arbitration_id,
-                                                is_extended_id=False, data=bytearray(pending.data),
-                                                channel=self.channel, is_rx=False))
-            else:
-                continue
-            if fire:
-                interrupts.append(bus)
-        # Receive interrupts run at the frame's end time, after every receiver has the frame
-        # (inline: same time and priority as a separate PRIO_CAN event, one heap operation less).
-        # A frame a handler sends now joins the arbitration below.
-        for bus in interrupts:
-            bus._fire(now_us)
+                if fire:
+                    interrupts.append(bus)
+            # Receive interrupts run at the frame's end time, after every receiver has the frame
+            # (inline: same time and priority as a separate PRIO_CAN event, one heap operation
+            # less). A frame a handler sends now joins the arbitration below.
+            for bus in interrupts:
+                bus._fire(now_us)
         self._arbitrate(now_us)
 
     # -- fault confinement and injection ------------------------------------------------------
