@@ -298,7 +298,7 @@ _rx_message = (_rx_message_fast if set(getattr(_Message, "__slots__", ())) - {"_
 
 
 class _Pending:
-    __slots__ = ("bus", "arbitration_id", "data", "submit_us", "seq")
+    __slots__ = ("bus", "arbitration_id", "data", "submit_us", "seq", "key")
 
     def __init__(self, bus, arbitration_id, data, submit_us, seq):
         self.bus = bus
@@ -306,6 +306,8 @@ class _Pending:
         self.data = data
         self.submit_us = submit_us
         self.seq = seq
+        #: arbitration order, as the tuple (identifier, seq) but one integer compare
+        self.key = (arbitration_id << 48) | seq
 
 
 class NodeErrorState:
@@ -450,6 +452,7 @@ class CanNetwork:
         self.bitrate = bitrate
         self._buses: list = []
         self._queues: dict[int, deque] = {}        # id(bus) -> deque of _Pending
+        self._active: dict[int, deque] = {}        # the non-empty ones (what arbitration scans)
         self._seq = 0
         self._busy = False
         self._arb_scheduled = False
@@ -497,6 +500,7 @@ class CanNetwork:
         if bus in self._buses:
             self._buses.remove(bus)
             self._npending -= len(self._queues.pop(id(bus)))
+            self._active.pop(id(bus), None)
             self._errors.pop(id(bus), None)
             self._rx_table.clear()
 
@@ -592,6 +596,7 @@ class CanNetwork:
         self._seq += 1
         self._npending += 1
         queue.append(_Pending(bus, aid, data, self.scheduler.now_us, self._seq))
+        self._active[id(bus)] = queue
         if not self._busy and not self._arb_scheduled:
             self._arb_scheduled = True
             self.scheduler.call_at(self.scheduler.now_us, self._arbitrate, PRIO_CAN,
@@ -607,16 +612,15 @@ class CanNetwork:
         if self._faulty:
             errs = self._errors
             wake = None
-            for key_id, queue in self._queues.items():
-                if queue:
-                    su = errs[key_id].suspend_until_us
-                    if su > now_us:          # error-passive transmitter in suspend transmission
-                        wake = su if wake is None or su < wake else wake
-                        continue
-                    head = queue[0]
-                    key = (head.arbitration_id, head.seq)
-                    if best_key is None or key < best_key:
-                        best, best_key = head, key
+            for key_id, queue in self._active.items():
+                su = errs[key_id].suspend_until_us
+                if su > now_us:              # error-passive transmitter in suspend transmission
+                    wake = su if wake is None or su < wake else wake
+                    continue
+                head = queue[0]
+                key = head.key
+                if best_key is None or key < best_key:
+                    best, best_key = head, key
             if best is None:
                 self._busy = False
                 if wake is not None:
@@ -624,16 +628,19 @@ class CanNetwork:
                     self.scheduler.call_at(wake, self._arbitrate, PRIO_CAN, owner=self._owner)
                 return
         else:
-            for queue in self._queues.values():
-                if queue:
-                    head = queue[0]
-                    key = (head.arbitration_id, head.seq)
-                    if best_key is None or key < best_key:
-                        best, best_key = head, key
+            for queue in self._active.values():
+                head = queue[0]
+                key = head.key
+                if best_key is None or key < best_key:
+                    best, best_key = head, key
         if best is None:
             self._busy = False
             return
-        self._queues[id(best.bus)].popleft()
+        bus_key = id(best.bus)
+        queue = self._queues[bus_key]
+        queue.popleft()
+        if not queue:
+            del self._active[bus_key]
         self._npending -= 1
         bits = frame_bits(best.arbitration_id, best.data)
         if self.bitrate == 1_000_000:
@@ -648,17 +655,22 @@ class CanNetwork:
                 return
         latency = now_us - best.submit_us
         aid = best.arbitration_id
-        if latency > self.max_latency_us.get(aid, -1):
-            self.max_latency_us[aid] = latency
-        self._account(now_us, dur_us, bits, aid)
-        self._current = best
-        self.scheduler.call_at(now_us + dur_us, self._complete, PRIO_CAN, owner=self._owner)
-
-    def _account(self, start_us: int, dur_us: int, bits: int, aid: int) -> None:
+        max_lat = self.max_latency_us
+        if latency > max_lat.get(aid, -1):
+            max_lat[aid] = latency
         self.frames += 1
         self.bits += bits
-        self.per_id[aid] = self.per_id.get(aid, 0) + 1
-        self._occupy(start_us, dur_us)
+        per_id = self.per_id
+        per_id[aid] = per_id.get(aid, 0) + 1
+        if now_us // WINDOW_US == (now_us + dur_us - 1) // WINDOW_US:    # within one load window
+            self.busy_us += dur_us
+            w = now_us // WINDOW_US
+            win = self._window_busy
+            win[w] = win.get(w, 0) + dur_us
+        else:
+            self._occupy(now_us, dur_us)
+        self._current = best
+        self.scheduler.call_at(now_us + dur_us, self._complete, PRIO_CAN, owner=self._owner)
 
     def _occupy(self, start_us: int, dur_us: int) -> None:
         """Count ``dur_us`` of bus time from ``start_us`` (total and per 100 ms load window)."""
@@ -747,11 +759,14 @@ class CanNetwork:
             tx.dropped_bus_off += 1 + len(q)
             self._npending -= len(q)
             q.clear()
+            self._active.pop(id(pending.bus), None)
             if tx.auto_recover:
                 self._start_recovery(tx, now_us + dur_us)
         else:
             tx.retransmissions += 1
-            self._queues[id(pending.bus)].appendleft(pending)     # automatic retransmission
+            q = self._queues[id(pending.bus)]
+            q.appendleft(pending)                                 # automatic retransmission
+            self._active[id(pending.bus)] = q
             self._npending += 1
             if tx.state == ERROR_PASSIVE:
                 tx.suspend_until_us = now_us + dur_us + self._bit_us(SUSPEND_BITS)
