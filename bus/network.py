@@ -43,6 +43,7 @@ closes the old one (its buses are detached). :meth:`CanNetwork.close` unregister
 
 from __future__ import annotations
 
+import heapq
 import random
 from collections import deque
 from functools import lru_cache
@@ -453,6 +454,11 @@ class CanNetwork:
         self._buses: list = []
         self._queues: dict[int, deque] = {}        # id(bus) -> deque of _Pending
         self._active: dict[int, deque] = {}        # the non-empty ones (what arbitration scans)
+        #: fault-free path: a heap of (key, pending) holding the head frame of every non-empty
+        #: queue, so arbitration costs O(log nodes) however many nodes have a frame waiting
+        #: (entries of detached buses are skipped when popped). Once a fault is injected the
+        #: network scans ``_active`` instead (suspend times, retransmissions at the head).
+        self._heads: list = []
         self._seq = 0
         self._busy = False
         self._arb_scheduled = False
@@ -595,12 +601,15 @@ class CanNetwork:
                                             f"(TEC {es.tec}); frame 0x{aid:03X} not sent")
         self._seq += 1
         self._npending += 1
-        queue.append(_Pending(bus, aid, data, self.scheduler.now_us, self._seq))
+        pending = _Pending(bus, aid, data, self.scheduler.now_us, self._seq)
+        queue.append(pending)
         self._active[id(bus)] = queue
+        if len(queue) == 1 and not self._faulty:
+            heapq.heappush(self._heads, (pending.key, pending))
         if not self._busy and not self._arb_scheduled:
             self._arb_scheduled = True
-            self.scheduler.call_at(self.scheduler.now_us, self._arbitrate, PRIO_CAN,
-                                   owner=self._owner)
+            sched = self.scheduler
+            sched._call_at_trusted(sched.now_us, self._arbitrate, PRIO_CAN, self._owner)
 
     def _arbitrate(self, now_us: int) -> None:
         self._arb_scheduled = False
@@ -628,11 +637,14 @@ class CanNetwork:
                     self.scheduler.call_at(wake, self._arbitrate, PRIO_CAN, owner=self._owner)
                 return
         else:
-            for queue in self._active.values():
-                head = queue[0]
-                key = head.key
-                if best_key is None or key < best_key:
-                    best, best_key = head, key
+            heads = self._heads
+            queues = self._queues
+            while heads:
+                _, head = heapq.heappop(heads)
+                queue = queues.get(id(head.bus))
+                if queue and queue[0] is head:       # else its bus was detached meanwhile
+                    best = head
+                    break
         if best is None:
             self._busy = False
             return
@@ -641,6 +653,9 @@ class CanNetwork:
         queue.popleft()
         if not queue:
             del self._active[bus_key]
+        elif not self._faulty:
+            nxt = queue[0]
+            heapq.heappush(self._heads, (nxt.key, nxt))
         self._npending -= 1
         bits = frame_bits(best.arbitration_id, best.data)
         if self.bitrate == 1_000_000:
@@ -670,7 +685,7 @@ class CanNetwork:
         else:
             self._occupy(now_us, dur_us)
         self._current = best
-        self.scheduler.call_at(now_us + dur_us, self._complete, PRIO_CAN, owner=self._owner)
+        self.scheduler._call_at_trusted(now_us + dur_us, self._complete, PRIO_CAN, self._owner)
 
     def _occupy(self, start_us: int, dur_us: int) -> None:
         """Count ``dur_us`` of bus time from ``start_us`` (total and per 100 ms load window)."""
@@ -802,6 +817,7 @@ class CanNetwork:
 
     def _enable_faults(self) -> None:
         self._faulty = True
+        self._heads.clear()                  # arbitration scans the non-empty queues from now on
 
     def inject_errors(self, *, kind: str = "corrupt", ids=None, sender=None, receivers=None,
                       probability: float = 1.0, count: int | None = None, start_us: int | None = None,

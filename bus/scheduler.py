@@ -200,6 +200,14 @@ class Scheduler:
         self._push(ev)
         return ev
 
+    def _call_at_trusted(self, t_us: int, callback: Callback, priority: int, owner: str | None) -> Event:
+        """:meth:`call_at` without its checks, for the simulator's own hot paths (the CAN
+        network schedules two events per frame) that pass an ``int`` ``t_us >= now_us``."""
+        ev = Event(t_us, priority, callback, owner, None)
+        self._seq += 1
+        heapq.heappush(self._heap, (t_us, priority, self._seq, ev))
+        return ev
+
     def cancel(self, event: Event) -> None:
         """Cancel ``event`` (one-shot or periodic). Cancelling twice or after it ran is a no-op."""
         event.cancelled = True

@@ -7,10 +7,10 @@ own python-can ``virtual`` Bus (python-can copies each frame once per attached B
 the bus load the emulated bus measured over the timed span (busy time incl. stuff bits and
 intermission / elapsed time) and the process's peak memory.
 
-``--network NAME`` chooses the network from :data:`NETWORKS` (board instances of the registry by
-name). Today only ``basic`` exists (every board of the registry = what ``build_network`` builds);
-the named networks of issue 12 (``lab``, ``full``) plug in by giving their list of board instance
-names to :func:`measure` — nothing else here depends on which boards run.
+``--network NAME`` chooses the network by name (:func:`networks`: ``boards.registry.NETWORKS``
+once the networks of issue 12 exist there, else ``basic`` = every board of the registry, what
+``build_network`` builds). A network is only a list of board instance names handed to
+:func:`measure`; nothing else here depends on which boards run.
 
 This is a benchmark, not a test: numbers depend on the machine and its load. Targets (issue 12,
 2-core reference machine): ``basic`` ≥ 80× real time; ``full`` ≥ 50× and ≥ 10× the naive design.
@@ -35,12 +35,15 @@ TARGET_RATIO = {"full": 10}
 def networks() -> dict[str, tuple[str, ...]]:
     """Network name -> board instance names (registry names, ``boards.registry.BOARD_NAMES``).
 
-    ``basic`` is every board of the registry today (the five boards; the host is always there).
-    A ``networks`` table by name, once it exists (issue 12), replaces this function's body.
+    The registry's ``NETWORKS`` table when it has one (issue 12: ``basic``, ``lab``, ``full``);
+    otherwise ``basic`` = every board of the registry (the five boards; the host is always there).
     """
-    from boards.registry import BOARD_NAMES
+    from boards import registry
 
-    return {"basic": tuple(BOARD_NAMES)}
+    table = getattr(registry, "NETWORKS", None)
+    if table:
+        return {name: tuple(boards) for name, boards in table.items()}
+    return {"basic": tuple(registry.BOARD_NAMES)}
 
 
 def add_subparser(sub: argparse._SubParsersAction) -> None:
@@ -56,20 +59,25 @@ def add_subparser(sub: argparse._SubParsersAction) -> None:
 
 
 def _with_boards(scenario, boards):
-    """``scenario`` restricted to the board instances ``boards`` (names from the registry).
+    """``scenario`` running network ``boards``: a name of :func:`networks` or a list of board
+    instance names of the registry (None: the scenario's own).
 
     Raises
     ------
     ValueError
-        If the scenario schema cannot choose boards yet and ``boards`` is not every board of
-        the registry (what ``build_network`` builds today).
+        If the scenario schema cannot choose boards yet (no ``network`` field) and ``boards`` is
+        not every board of the registry (what ``build_network`` builds then).
     """
     from boards.registry import BOARD_NAMES
 
-    if boards is None or tuple(boards) == tuple(BOARD_NAMES):
+    if boards is None:
         return scenario
     if "network" in type(scenario).model_fields:
-        return scenario.model_copy(update={"network": list(boards)})
+        return scenario.model_copy(update={"network": boards if isinstance(boards, str) else list(boards)})
+    if isinstance(boards, str):
+        boards = networks()[boards]
+    if tuple(boards) == tuple(BOARD_NAMES):
+        return scenario
     raise ValueError(f"this build cannot choose boards yet (scenario has no 'network' field); "
                      f"asked for {list(boards)}, the registry has {list(BOARD_NAMES)}")
 
@@ -85,8 +93,9 @@ def measure(scenario, seconds: float, interface: str, boards=None) -> dict:
         Simulated span timed, s.
     interface : {"sim", "virtual"}
         The emulated bus, or the naive one-``virtual``-Bus-per-node design.
-    boards : sequence of str, optional
-        Board instance names of the network (default: every board of the registry).
+    boards : str or sequence of str, optional
+        The network: a name of :func:`networks` or a list of board instance names (default:
+        the scenario's own).
 
     Returns
     -------
@@ -170,7 +179,7 @@ def bench(scenario, network: str, seconds: float, repeat: int) -> dict:
     boards = nets[network]
     best = {}
     for interface in ("sim", "virtual"):
-        runs = [measure(scenario, seconds, interface, boards) for _ in range(max(1, repeat))]
+        runs = [measure(scenario, seconds, interface, network) for _ in range(max(1, repeat))]
         best[interface] = max(runs, key=lambda r: r["rtf"])
     sim = best["sim"]
     return {
