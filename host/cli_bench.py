@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import resource
 import time
 from pathlib import Path
@@ -100,7 +101,9 @@ def measure(scenario, seconds: float, interface: str, boards=None) -> dict:
     Returns
     -------
     dict
-        ``rtf`` (simulated s per wall s), ``wall_s``, ``boards`` (count), ``frames`` (received by
+        ``rtf`` (simulated s per wall s), ``rtf_cpu`` (simulated s per CPU second of this process:
+        what other processes on a shared machine change least), ``wall_s``, ``boards`` (count),
+        ``frames`` (received by
         the host), and on the emulated bus ``bus_frames`` and ``bus_load_pct`` over the timed span
         (``None`` on ``virtual``, which has no bus timing).
     """
@@ -120,11 +123,13 @@ def measure(scenario, seconds: float, interface: str, boards=None) -> dict:
         net = tel.network
         t0 = tel.scheduler.now_us
         busy0, frames0 = (net.busy_us, net.frames) if net is not None else (0, 0)
-        w0 = time.perf_counter()
+        c0, w0 = time.process_time(), time.perf_counter()
         tel.scheduler.run_until(t0 + int(seconds * 1e6))
         wall = time.perf_counter() - w0
+        cpu = time.process_time() - c0
         span_us = tel.scheduler.now_us - t0
-        out = {"rtf": seconds / wall, "wall_s": wall, "boards": len(tel.boards),
+        out = {"rtf": seconds / wall, "rtf_cpu": seconds / cpu if cpu > 0 else None,
+               "wall_s": wall, "boards": len(tel.boards),
                "frames": client.frames_received, "bus_frames": None, "bus_load_pct": None}
         if net is not None:
             out["bus_frames"] = net.frames - frames0
@@ -187,6 +192,9 @@ def bench(scenario, network: str, seconds: float, repeat: int) -> dict:
         "rtf": round(sim["rtf"], 2),
         "rtf_naive": round(best["virtual"]["rtf"], 2),
         "ratio": round(sim["rtf"] / best["virtual"]["rtf"], 2),
+        "rtf_cpu": round(sim["rtf_cpu"], 2) if sim["rtf_cpu"] else None,
+        "rtf_naive_cpu": round(best["virtual"]["rtf_cpu"], 2) if best["virtual"]["rtf_cpu"] else None,
+        "load_average_1min": round(os.getloadavg()[0], 2),
         "boards": sim["boards"],
         "board_names": list(boards),
         "bus_load_pct": round(sim["bus_load_pct"], 2),
@@ -224,6 +232,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"network {out['network']!r} ({out['boards']} boards + host, in-process sim bus): "
           f"{out['rtf']:8.1f}x real time{verdict(out['rtf'], out['target_rtf'])}")
     print(f"naive (one python-can virtual Bus per node):            {out['rtf_naive']:8.1f}x real time")
+    print(f"per CPU second of this process: network {out['rtf_cpu']}x, naive {out['rtf_naive_cpu']}x "
+          f"(machine load average {out['load_average_1min']}: wall figures drop when other processes run)")
     print(f"ratio: {out['ratio']:.2f}{verdict(out['ratio'], out['target_ratio'])}   bus load "
           f"{out['bus_load_pct']:.1f} % ({out['bus_frames_per_s']:.0f} frames/s)   "
           f"peak memory (max RSS) {out['peak_memory']['max_rss_mib']} MiB")
