@@ -330,6 +330,7 @@ class CanController:
         self.interrupt_enabled = False
         self.has_rx_interrupt = hasattr(bus, "set_rx_callback")
         self._send_frame = getattr(bus, "send_frame", None)
+        self._drain = getattr(bus, "drain_rx", None)
 
     def enable_rx_interrupt(self) -> bool:
         """Hook the receive interrupt if the bus supports it; returns True if it does."""
@@ -362,10 +363,12 @@ class CanController:
 
     def _fill_buffers(self) -> None:
         recv, accept, hw, n = self.bus.recv, self.accept, self._hw, self.rx_buffers
-        while True:
-            msg = recv(0)
-            if msg is None:
-                return
+        drain = self._drain
+        if drain is not None:                 # schmidt-sim: every pending frame at once
+            msgs = drain()
+        else:
+            msgs = iter(lambda: recv(0), None)
+        for msg in msgs:
             if not accept(msg.arbitration_id):
                 continue
             if len(hw) >= n:

@@ -52,7 +52,7 @@ import can
 
 from bus import bitkernel as _bitkernel
 from bus.errors import BusError
-from bus.scheduler import PRIO_CAN, Scheduler
+from bus.scheduler import PRIO_CAN, Event, Scheduler
 
 __all__ = ["CanNetwork", "get_network", "frame_bits", "frame_bits_unstuffed", "crc15",
            "WINDOW_US", "NodeErrorState", "ErrorRule", "ERROR_ACTIVE", "ERROR_PASSIVE", "BUS_OFF",
@@ -480,6 +480,10 @@ class CanNetwork:
         self.closed = False
         self._taps: list = []
         self._owner = f"can:{channel}"
+        # the one-shot events of arbitration and frame completion, reused once spent
+        self._arb_event = Event(0, PRIO_CAN, self._arbitrate, self._owner, None)
+        self._complete_event = Event(0, PRIO_CAN, self._complete, self._owner, None)
+        self._arb_event.cancelled = self._complete_event.cancelled = True     # not queued
         # fault confinement (inactive until a fault is injected: fast path unchanged)
         self._faulty = False
         self._rules: list = []
@@ -609,7 +613,12 @@ class CanNetwork:
         if not self._busy and not self._arb_scheduled:
             self._arb_scheduled = True
             sched = self.scheduler
-            sched._call_at_trusted(sched.now_us, self._arbitrate, PRIO_CAN, self._owner)
+            ev = self._arb_event
+            if ev.cancelled:                  # spent: reuse it (no Event built per frame)
+                sched._reschedule_trusted(ev, sched.now_us)
+            else:
+                self._arb_event = sched._call_at_trusted(sched.now_us, self._arbitrate, PRIO_CAN,
+                                                         self._owner)
 
     def _arbitrate(self, now_us: int) -> None:
         self._arb_scheduled = False
@@ -685,7 +694,12 @@ class CanNetwork:
         else:
             self._occupy(now_us, dur_us)
         self._current = best
-        self.scheduler._call_at_trusted(now_us + dur_us, self._complete, PRIO_CAN, self._owner)
+        ev = self._complete_event
+        if ev.cancelled:                      # spent: reuse it (no Event built per frame)
+            self.scheduler._reschedule_trusted(ev, now_us + dur_us)
+        else:
+            self._complete_event = self.scheduler._call_at_trusted(now_us + dur_us, self._complete,
+                                                                   PRIO_CAN, self._owner)
 
     def _occupy(self, start_us: int, dur_us: int) -> None:
         """Count ``dur_us`` of bus time from ``start_us`` (total and per 100 ms load window)."""

@@ -208,6 +208,15 @@ class Scheduler:
         heapq.heappush(self._heap, (t_us, priority, self._seq, ev))
         return ev
 
+    def _reschedule_trusted(self, ev: Event, t_us: int) -> None:
+        """Queue a spent one-shot ``ev`` (it ran, so ``ev.cancelled`` is True) again at ``t_us``,
+        as :meth:`_call_at_trusted` with the same callback, priority and owner would, without
+        building a new :class:`Event` (the CAN network's per-frame events)."""
+        ev.t_us = t_us
+        ev.cancelled = False
+        self._seq += 1
+        heapq.heappush(self._heap, (t_us, ev.priority, self._seq, ev))
+
     def cancel(self, event: Event) -> None:
         """Cancel ``event`` (one-shot or periodic). Cancelling twice or after it ran is a no-op."""
         event.cancelled = True

@@ -163,6 +163,16 @@ class SimBus(can.BusABC):
             return self._rx.popleft()
         return None
 
+    def drain_rx(self) -> list:
+        """Every frame delivered and not yet read, oldest first, removed from the queue (what
+        ``recv()`` would return one by one until ``None``)."""
+        rx = self._rx
+        if not rx:
+            return []
+        out = list(rx)
+        rx.clear()
+        return out
+
     def set_rx_callback(self, fn: Callable[[], object] | None) -> None:
         """Install the receive interrupt: ``fn()`` runs at the end of each accepted delivery."""
         self._rx_callback = fn
