@@ -13,8 +13,11 @@ Model
   identifiers, illegal on a real bus, go by submission order).
 * The winner occupies the bus for ``frame_bits`` bit times (``ceil(bits * 1e6 / bitrate)`` µs;
   exactly ``bits`` µs at 1 Mbit/s, including the 3-bit intermission), then it is delivered to
-  every *other* attached bus with ``timestamp = end_us / 1e6`` and the next arbitration runs at
-  once among the frames pending at that moment.
+  every *other* attached bus whose acceptance filters pass it, with ``timestamp = end_us / 1e6``,
+  and the next arbitration runs at once among the frames pending at that moment.
+* Cost: delivery walks a table identifier → accepting receivers (rebuilt when a bus attaches,
+  detaches or changes filters), so it scales with the receivers of a frame, not with the nodes;
+  fault-free arbitration pops a heap of queue heads. Neither changes who gets what, or when.
 * Fault confinement (ISO 11898-1 §12), active only once a fault is injected (the fault-free
   path is unchanged): see :class:`NodeErrorState` and :meth:`CanNetwork.inject_errors`. A frame
   that meets an error occupies the bus up to the bit where the error is detected, then an error
