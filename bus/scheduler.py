@@ -260,22 +260,26 @@ class Scheduler:
             raise SimulationError("run_until called from inside a callback", None, self.now_us)
         heap = self._heap
         pop = heapq.heappop
-        push = heapq.heappush
+        replace = heapq.heapreplace
         self._running = True
         n = 0
         try:
             while heap and heap[0][0] <= t_us:
-                t, prio, _, ev = pop(heap)
+                t, prio, _, ev = heap[0]
                 if ev.cancelled:
+                    pop(heap)
                     continue
                 self.now_us = t
                 period = ev.period_us
                 if period is None:
+                    pop(heap)
                     ev.cancelled = True  # a one-shot event is spent once it runs
                 else:
+                    # the next repetition replaces this entry: one sift instead of pop + push
+                    # (keys are unique, so the order of events is the same either way)
                     ev.t_us = t + period
                     self._seq += 1
-                    push(heap, (ev.t_us, prio, self._seq, ev))
+                    replace(heap, (ev.t_us, prio, self._seq, ev))
                 n += 1
                 try:
                     ev.callback(t)
