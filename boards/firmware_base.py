@@ -263,11 +263,12 @@ class Board(Application):
                 raise MalformedFrame(f"id 0x{msg.arbitration_id:03X}", "frame type",
                                      "standard data frame")
             cob = msg.arbitration_id
-            if self.device.receive(cob, bytes(msg.data)):
+            data = bytes(msg.data)
+            if self.device.receive(cob, data):
                 return                                  # NMT, SDO, a consumed heartbeat
             if proto.FC_HEARTBEAT < cob <= proto.FC_HEARTBEAT + 0x7F:
                 if cob in self._firmware_ids:           # e.g. the axis's host watchdog (0x710)
-                    self.handle_frame(cob, bytes(msg.data))
+                    self.handle_frame(cob, data)
                 return                                  # heartbeats count in every NMT state
             if not self.device.accept_rpdo(cob):
                 return                                  # process data outside OPERATIONAL
@@ -276,7 +277,7 @@ class Board(Application):
                 if b.target_node in (0, self.node_id):
                     self.stop_all()
             else:
-                self.handle_frame(cob, bytes(msg.data))
+                self.handle_frame(cob, data)
         except MalformedFrame:
             self.malformed_frames += 1
             now = self.scheduler.now_us

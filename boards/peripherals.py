@@ -14,6 +14,7 @@ buffers), the paper §3.3-§3.4 (T. S. Kumar and R. N. Banavar, Opt. Eng. 52(8) 
 from __future__ import annotations
 
 import math
+from math import floor as _floor, isfinite as _isfinite
 from collections import deque
 from typing import Callable, Deque, Dict, Optional
 
@@ -67,7 +68,19 @@ class Timer:
         self.priority = priority
         self.owner = owner
         self._event = None
-        self.ticks = 0
+        self._first_us = 0
+        self._ticks_before = 0       # interrupts of earlier runs (since the last reset)
+
+    @property
+    def ticks(self) -> int:
+        """Interrupts since the last :meth:`reset` (counted from the scheduler's event: the ISR
+        is scheduled directly, with no counting wrapper per interrupt)."""
+        ev = self._event
+        if ev is None:
+            return self._ticks_before
+        # the scheduler sets ev.t_us to the next run before calling the ISR, so inside the ISR
+        # of the k-th interrupt this is k, as a counter incremented before the ISR would be
+        return self._ticks_before + (ev.t_us - self._first_us) // ev.period_us
 
     @property
     def running(self) -> bool:
@@ -78,24 +91,22 @@ class Timer:
         """Enable the timer; the first interrupt fires one period after ``start_us`` (default now)."""
         self.stop()
         t0 = self.scheduler.now_us if start_us is None else int(start_us)
-        self._event = self.scheduler.call_every(self.period_us, self._fire,
-                                                start_us=t0 + self.period_us,
+        self._first_us = t0 + self.period_us
+        self._event = self.scheduler.call_every(self.period_us, self.isr,
+                                                start_us=self._first_us,
                                                 priority=self.priority, owner=self.owner)
 
     def stop(self) -> None:
         """Disable the timer (pending interrupt cancelled)."""
         if self._event is not None:
+            self._ticks_before = self.ticks
             self.scheduler.cancel(self._event)
             self._event = None
-
-    def _fire(self, now_us: int) -> None:
-        self.ticks += 1
-        self.isr(now_us)
 
     def reset(self) -> None:
         """Power-on state: stopped, tick count zero."""
         self.stop()
-        self.ticks = 0
+        self._ticks_before = 0
 
 
 class Pwm:
@@ -141,12 +152,16 @@ class Pwm:
 
     def set_duties(self, duty_a: float, duty_b: float) -> None:
         """Write both duty registers (values clipped to 0..1 and rounded to the register step)."""
-        regs = []
-        for d in (duty_a, duty_b):
-            d = 0.0 if not math.isfinite(d) else min(1.0, max(0.0, float(d)))
-            regs.append(int(round(d * self.steps)))
-        self.duty_register = regs
-        self._notify()
+        steps = self.steps
+        a = 0.0 if not _isfinite(duty_a) else min(1.0, max(0.0, float(duty_a)))
+        b = 0.0 if not _isfinite(duty_b) else min(1.0, max(0.0, float(duty_b)))
+        ra, rb = int(round(a * steps)), int(round(b * steps))
+        self.duty_register = [ra, rb]
+        if self.on_change is not None:          # _notify() inlined (called every 5 ms tick)
+            if self.enabled:
+                self.on_change(ra / steps, rb / steps)
+            else:
+                self.on_change(0.0, 0.0)
 
     def disable(self) -> None:
         """Override both outputs low (PWM outputs disabled)."""
@@ -199,10 +214,11 @@ class Qei:
 
     def read_delta(self) -> int:
         """Read POSCNT, update the 32-bit extension and return the signed count change."""
-        p = self.poscnt
-        delta = (p - self._last_poscnt) % self.MODULUS
-        if delta >= self.MODULUS // 2:
-            delta -= self.MODULUS
+        m = self.MODULUS
+        p = (int(self.read_counts()) - self._offset) % m          # POSCNT (self.poscnt)
+        delta = (p - self._last_poscnt) % m
+        if delta >= m >> 1:
+            delta -= m
         self._last_poscnt = p
         self.extended = ((self.extended + delta + (1 << 31)) % (1 << 32)) - (1 << 31)
         return delta
@@ -259,7 +275,15 @@ class Adc:
     def sample(self, name: str) -> int:
         """Convert channel ``name`` now; returns counts (also kept in ``last``)."""
         port = self.channels.get(name)
-        c = 0 if port is None else self.to_counts(float(port()))
+        if port is None:
+            c = 0
+        else:                                   # to_counts() inlined (two channels every tick)
+            volts = float(port())
+            if not _isfinite(volts):
+                c = self.full_scale if volts > 0 else 0
+            else:
+                c = int(_floor(volts / self.vref_v * (1 << self.bits)))
+                c = min(self.full_scale, max(0, c))
         self.last[name] = c
         return c
 
@@ -305,6 +329,8 @@ class CanController:
         self.tx_errors = 0
         self.interrupt_enabled = False
         self.has_rx_interrupt = hasattr(bus, "set_rx_callback")
+        self._send_frame = getattr(bus, "send_frame", None)
+        self._drain = getattr(bus, "drain_rx", None)
 
     def enable_rx_interrupt(self) -> bool:
         """Hook the receive interrupt if the bus supports it; returns True if it does."""
@@ -336,16 +362,19 @@ class CanController:
         self.bus.set_filters([{"can_id": i, "can_mask": 0x7FF, "extended": False} for i in ids])
 
     def _fill_buffers(self) -> None:
-        while True:
-            msg = self.bus.recv(timeout=0)
-            if msg is None:
-                return
-            if not self.accept(msg.arbitration_id):
+        recv, accept, hw, n = self.bus.recv, self.accept, self._hw, self.rx_buffers
+        drain = self._drain
+        if drain is not None:                 # schmidt-sim: every pending frame at once
+            msgs = drain()
+        else:
+            msgs = iter(lambda: recv(0), None)
+        for msg in msgs:
+            if not accept(msg.arbitration_id):
                 continue
-            if len(self._hw) >= self.rx_buffers:
+            if len(hw) >= n:
                 self.rx_overflows += 1      # RXnOVR: the frame is lost
                 continue
-            self._hw.append(msg)
+            hw.append(msg)
 
     def _service(self) -> None:
         while self._hw:
@@ -365,10 +394,16 @@ class CanController:
         self._service()
 
     def send(self, arbitration_id: int, data: bytes) -> bool:
-        """Transmit a standard-identifier data frame; returns False (and counts) on a bus error."""
-        msg = can.Message(arbitration_id=arbitration_id, data=data, is_extended_id=False)
+        """Transmit a standard-identifier data frame; returns False (and counts) on a bus error.
+
+        On a bus with ``send_frame(id, data)`` (``schmidt-sim``) no ``can.Message`` is built.
+        """
         try:
-            self.bus.send(msg)
+            send_frame = self._send_frame
+            if send_frame is not None:
+                send_frame(arbitration_id, data)
+            else:
+                self.bus.send(can.Message(arbitration_id=arbitration_id, data=data, is_extended_id=False))
         except can.CanError:
             self.tx_errors += 1
             return False

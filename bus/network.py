@@ -13,8 +13,11 @@ Model
   identifiers, illegal on a real bus, go by submission order).
 * The winner occupies the bus for ``frame_bits`` bit times (``ceil(bits * 1e6 / bitrate)`` µs;
   exactly ``bits`` µs at 1 Mbit/s, including the 3-bit intermission), then it is delivered to
-  every *other* attached bus with ``timestamp = end_us / 1e6`` and the next arbitration runs at
-  once among the frames pending at that moment.
+  every *other* attached bus whose acceptance filters pass it, with ``timestamp = end_us / 1e6``,
+  and the next arbitration runs at once among the frames pending at that moment.
+* Cost: delivery walks a table identifier → accepting receivers (rebuilt when a bus attaches,
+  detaches or changes filters), so it scales with the receivers of a frame, not with the nodes;
+  fault-free arbitration pops a heap of queue heads. Neither changes who gets what, or when.
 * Fault confinement (ISO 11898-1 §12), active only once a fault is injected (the fault-free
   path is unchanged): see :class:`NodeErrorState` and :meth:`CanNetwork.inject_errors`. A frame
   that meets an error occupies the bus up to the bit where the error is detected, then an error
@@ -43,14 +46,16 @@ closes the old one (its buses are detached). :meth:`CanNetwork.close` unregister
 
 from __future__ import annotations
 
+import heapq
 import random
 from collections import deque
 from functools import lru_cache
 
 import can
 
+from bus import bitkernel as _bitkernel
 from bus.errors import BusError
-from bus.scheduler import PRIO_CAN, Scheduler
+from bus.scheduler import PRIO_CAN, Event, Scheduler
 
 __all__ = ["CanNetwork", "get_network", "frame_bits", "frame_bits_unstuffed", "crc15",
            "WINDOW_US", "NodeErrorState", "ErrorRule", "ERROR_ACTIVE", "ERROR_PASSIVE", "BUS_OFF",
@@ -159,26 +164,9 @@ def frame_bits_unstuffed(data_len: int) -> int:
     return 47 + 8 * data_len
 
 
-@lru_cache(maxsize=8192)
-def frame_bits(arbitration_id: int, data: bytes) -> int:
-    """Exact length in bits of a CAN 2.0A data frame on the wire, including stuff bits.
-
-    SOF, 11-bit identifier, RTR, IDE, r0, 4-bit DLC, data, 15-bit CRC (computed), then the stuff
-    bits counted over SOF..end of CRC, then CRC delimiter, ACK slot, ACK delimiter, 7 EOF bits
-    and the 3-bit intermission. An 8-byte frame is 111 bits unstuffed, at most 135.
-
-    Parameters
-    ----------
-    arbitration_id : int
-        Standard identifier, 0..0x7FF.
-    data : bytes
-        0..8 data bytes (must be hashable: ``bytes``, not ``bytearray``; results are cached).
-
-    Returns
-    -------
-    int
-        Bit count (= µs at 1 Mbit/s).
-    """
+def _frame_bits_tables(arbitration_id: int, data: bytes) -> int:
+    """:func:`frame_bits` computed with 16-bit CRC and stuffing tables, interpreted (used when
+    numba is not available; same arguments, result and errors)."""
     n = len(data)
     if not 0 <= arbitration_id <= 0x7FF or n > 8:
         raise BusError(f"frame_bits: need an 11-bit id and <= 8 data bytes, got "
@@ -213,6 +201,46 @@ def frame_bits(arbitration_id: int, data: bytes) -> int:
     return nbits + stuffs + 13       # + CRC delim, ACK slot, ACK delim, 7 EOF, 3 IFS
 
 
+@lru_cache(maxsize=8192)
+def frame_bits(arbitration_id: int, data: bytes) -> int:
+    """Exact length in bits of a CAN 2.0A data frame on the wire, including stuff bits.
+
+    SOF, 11-bit identifier, RTR, IDE, r0, 4-bit DLC, data, 15-bit CRC (computed), then the stuff
+    bits counted over SOF..end of CRC, then CRC delimiter, ACK slot, ACK delimiter, 7 EOF bits
+    and the 3-bit intermission. An 8-byte frame is 111 bits unstuffed, at most 135.
+
+    Computed by the compiled bit-serial kernel :func:`bus.bitkernel.frame_bits_kernel` when numba
+    is available (≈ 0.5 µs; a miss of the cache below happens for most status frames, whose data
+    change every period), else by the table-driven :func:`_frame_bits_tables` (≈ 5–10 µs);
+    tests/test_bus_network.py checks that both agree with a bit-by-bit reference.
+
+    Parameters
+    ----------
+    arbitration_id : int
+        Standard identifier, 0..0x7FF.
+    data : bytes
+        0..8 data bytes (must be hashable: ``bytes``, not ``bytearray``; results are cached).
+
+    Returns
+    -------
+    int
+        Bit count (= µs at 1 Mbit/s).
+
+    Raises
+    ------
+    BusError
+        For an identifier above 0x7FF or more than 8 data bytes.
+    """
+    n = len(data)
+    if not 0 <= arbitration_id <= 0x7FF or n > 8:
+        raise BusError(f"frame_bits: need an 11-bit id and <= 8 data bytes, got "
+                       f"id=0x{arbitration_id:X}, {n} bytes")
+    if _bitkernel.JIT:
+        v = int.from_bytes(data, "big")
+        return _bitkernel.frame_bits_kernel(arbitration_id, n, v >> 32, v & 0xFFFFFFFF)
+    return _frame_bits_tables(arbitration_id, data)
+
+
 # ------------------------------------------------------------------------------------------------
 # The network
 # ------------------------------------------------------------------------------------------------
@@ -236,16 +264,54 @@ def get_network(channel: str) -> "CanNetwork":
             f"first (registered: {sorted(_REGISTRY)})") from None
 
 
-class _Pending:
-    __slots__ = ("bus", "msg", "arbitration_id", "data", "submit_us", "seq")
+#: The slots of ``can.Message`` that :func:`_rx_message` fills (python-can 4.x).
+_MESSAGE_SLOTS = frozenset({"timestamp", "arbitration_id", "is_extended_id", "is_remote_frame",
+                            "is_error_frame", "channel", "dlc", "data", "is_fd", "is_rx",
+                            "bitrate_switch", "error_state_indicator"})
+_Message = can.Message
 
-    def __init__(self, bus, msg, arbitration_id, data, submit_us, seq):
+
+def _rx_message_fast(timestamp: float, arbitration_id: int, data: bytes, channel, is_rx: bool):
+    m = _Message.__new__(_Message)
+    m.timestamp = timestamp
+    m.arbitration_id = arbitration_id
+    m.is_extended_id = False
+    m.is_remote_frame = False
+    m.is_error_frame = False
+    m.channel = channel
+    m.dlc = len(data)
+    m.data = bytearray(data)
+    m.is_fd = False
+    m.is_rx = is_rx
+    m.bitrate_switch = False
+    m.error_state_indicator = False
+    return m
+
+
+def _rx_message_init(timestamp: float, arbitration_id: int, data: bytes, channel, is_rx: bool):
+    return _Message(timestamp=timestamp, arbitration_id=arbitration_id, is_extended_id=False,
+                    data=bytearray(data), channel=channel, is_rx=is_rx)
+
+
+#: The received frame as a ``can.Message``, equal to ``can.Message(timestamp=..., arbitration_id=...,
+#: is_extended_id=False, data=bytearray(data), channel=..., is_rx=...)``; built without
+#: ``__init__``'s argument handling (half the cost) when python-can's slots are the known ones,
+#: else by the constructor (tests/test_bus_network.py checks the two agree).
+_rx_message = (_rx_message_fast if set(getattr(_Message, "__slots__", ())) - {"__weakref__"} == _MESSAGE_SLOTS
+               else _rx_message_init)
+
+
+class _Pending:
+    __slots__ = ("bus", "arbitration_id", "data", "submit_us", "seq", "key")
+
+    def __init__(self, bus, arbitration_id, data, submit_us, seq):
         self.bus = bus
-        self.msg = msg
         self.arbitration_id = arbitration_id
         self.data = data
         self.submit_us = submit_us
         self.seq = seq
+        #: arbitration order, as the tuple (identifier, seq) but one integer compare
+        self.key = (arbitration_id << 48) | seq
 
 
 class NodeErrorState:
@@ -349,6 +415,9 @@ class _InjectedNode:
     def __init__(self, name: str) -> None:
         self.name = name
 
+    def _accepts(self, arbitration_id: int) -> bool:
+        return False
+
     def _deliver(self, msg) -> bool:
         return False
 
@@ -387,11 +456,22 @@ class CanNetwork:
         self.bitrate = bitrate
         self._buses: list = []
         self._queues: dict[int, deque] = {}        # id(bus) -> deque of _Pending
+        self._active: dict[int, deque] = {}        # the non-empty ones (what arbitration scans)
+        #: fault-free path: a heap of (key, pending) holding the head frame of every non-empty
+        #: queue, so arbitration costs O(log nodes) however many nodes have a frame waiting
+        #: (entries of detached buses are skipped when popped). Once a fault is injected the
+        #: network scans ``_active`` instead (suspend times, retransmissions at the head).
+        self._heads: list = []
         self._seq = 0
         self._busy = False
         self._arb_scheduled = False
         self._npending = 0
         self._current: _Pending | None = None
+        #: identifier -> ((bus, enqueue), ...): the attached buses whose acceptance filters pass
+        #: that identifier, in attach order, built on first use and dropped whenever a bus is
+        #: attached, detached or changes its filters. Delivery then costs per *accepting*
+        #: receiver, not per attached node.
+        self._rx_table: dict[int, tuple] = {}
         self._start_us = scheduler.now_us
         # statistics
         self.frames = 0
@@ -403,6 +483,10 @@ class CanNetwork:
         self.closed = False
         self._taps: list = []
         self._owner = f"can:{channel}"
+        # the one-shot events of arbitration and frame completion, reused once spent
+        self._arb_event = Event(0, PRIO_CAN, self._arbitrate, self._owner, None)
+        self._complete_event = Event(0, PRIO_CAN, self._complete, self._owner, None)
+        self._arb_event.cancelled = self._complete_event.cancelled = True     # not queued
         # fault confinement (inactive until a fault is injected: fast path unchanged)
         self._faulty = False
         self._rules: list = []
@@ -422,13 +506,39 @@ class CanNetwork:
             self._buses.append(bus)
             self._queues[id(bus)] = deque()
             self._errors[id(bus)] = NodeErrorState(getattr(bus, "name", repr(bus)))
+            self._rx_table.clear()
 
     def detach(self, bus) -> None:
         """Detach a bus; its queued, not yet started frames are dropped."""
         if bus in self._buses:
             self._buses.remove(bus)
             self._npending -= len(self._queues.pop(id(bus)))
+            self._active.pop(id(bus), None)
             self._errors.pop(id(bus), None)
+            self._rx_table.clear()
+
+    def filters_changed(self) -> None:
+        """An attached bus changed its acceptance filters (SimBus calls this from
+        ``set_filters``): the identifier -> receivers table is rebuilt on demand."""
+        self._rx_table.clear()
+
+    def _receivers(self, arbitration_id: int) -> tuple:
+        """``((bus, enqueue), ...)`` for the buses that accept ``arbitration_id``, attach order.
+
+        A bus with ``_accepts(id)`` (SimBus, the babbling node) is listed only if its filters
+        pass the identifier, and then gets the frame through ``_enqueue`` (no second filter
+        check); any other attached object is always listed and gets ``_deliver``, which filters.
+        """
+        out = []
+        for bus in self._buses:
+            accepts = getattr(bus, "_accepts", None)
+            if accepts is None:
+                out.append((bus, bus._deliver))
+            elif accepts(arbitration_id):
+                out.append((bus, bus._enqueue))
+        entry = tuple(out)
+        self._rx_table[arbitration_id] = entry
+        return entry
 
     @property
     def buses(self) -> tuple:
@@ -458,16 +568,36 @@ class CanNetwork:
         BusError
             Extended, remote, error or FD frames, ids > 0x7FF, > 8 bytes, or a detached bus.
         """
-        queue = self._queues.get(id(bus))
-        if queue is None:
-            raise BusError(f"bus {bus!r} is not attached to CanNetwork {self.channel!r}")
         aid = msg.arbitration_id
         if msg.is_extended_id or aid > 0x7FF or aid < 0:
+            if id(bus) not in self._queues:
+                raise BusError(f"bus {bus!r} is not attached to CanNetwork {self.channel!r}")
             raise BusError(f"CAN 2.0A only: 11-bit standard ids (is_extended_id=False), "
                            f"got 0x{aid:X} extended={msg.is_extended_id}")
         if msg.is_remote_frame or msg.is_error_frame or msg.is_fd:
+            if id(bus) not in self._queues:
+                raise BusError(f"bus {bus!r} is not attached to CanNetwork {self.channel!r}")
             raise BusError("remote, error and FD frames are not emulated")
-        data = bytes(msg.data)
+        self.submit_frame(bus, aid, bytes(msg.data))
+
+    def submit_frame(self, bus, arbitration_id: int, data: bytes) -> None:
+        """Queue a standard data frame from ``bus`` given as identifier and ``bytes`` (the fast
+        path of :meth:`submit`, used by ``SimBus.send_frame``: no ``can.Message`` is built).
+
+        Raises
+        ------
+        BusError
+            An identifier outside 0..0x7FF, more than 8 bytes, or a detached bus.
+        can.CanOperationError
+            While the node is bus-off.
+        """
+        queue = self._queues.get(id(bus))
+        if queue is None:
+            raise BusError(f"bus {bus!r} is not attached to CanNetwork {self.channel!r}")
+        aid = arbitration_id
+        if aid > 0x7FF or aid < 0:
+            raise BusError(f"CAN 2.0A only: 11-bit standard ids (is_extended_id=False), "
+                           f"got 0x{aid:X} extended=False")
         if len(data) > 8:
             raise BusError(f"CAN 2.0A carries at most 8 data bytes, got {len(data)}")
         if self._faulty:
@@ -478,11 +608,20 @@ class CanNetwork:
                                             f"(TEC {es.tec}); frame 0x{aid:03X} not sent")
         self._seq += 1
         self._npending += 1
-        queue.append(_Pending(bus, msg, aid, data, self.scheduler.now_us, self._seq))
+        pending = _Pending(bus, aid, data, self.scheduler.now_us, self._seq)
+        queue.append(pending)
+        self._active[id(bus)] = queue
+        if len(queue) == 1 and not self._faulty:
+            heapq.heappush(self._heads, (pending.key, pending))
         if not self._busy and not self._arb_scheduled:
             self._arb_scheduled = True
-            self.scheduler.call_at(self.scheduler.now_us, self._arbitrate, PRIO_CAN,
-                                   owner=self._owner)
+            sched = self.scheduler
+            ev = self._arb_event
+            if ev.cancelled:                  # spent: reuse it (no Event built per frame)
+                sched._reschedule_trusted(ev, sched.now_us)
+            else:
+                self._arb_event = sched._call_at_trusted(sched.now_us, self._arbitrate, PRIO_CAN,
+                                                         self._owner)
 
     def _arbitrate(self, now_us: int) -> None:
         self._arb_scheduled = False
@@ -494,16 +633,15 @@ class CanNetwork:
         if self._faulty:
             errs = self._errors
             wake = None
-            for key_id, queue in self._queues.items():
-                if queue:
-                    su = errs[key_id].suspend_until_us
-                    if su > now_us:          # error-passive transmitter in suspend transmission
-                        wake = su if wake is None or su < wake else wake
-                        continue
-                    head = queue[0]
-                    key = (head.arbitration_id, head.seq)
-                    if best_key is None or key < best_key:
-                        best, best_key = head, key
+            for key_id, queue in self._active.items():
+                su = errs[key_id].suspend_until_us
+                if su > now_us:              # error-passive transmitter in suspend transmission
+                    wake = su if wake is None or su < wake else wake
+                    continue
+                head = queue[0]
+                key = head.key
+                if best_key is None or key < best_key:
+                    best, best_key = head, key
             if best is None:
                 self._busy = False
                 if wake is not None:
@@ -511,16 +649,25 @@ class CanNetwork:
                     self.scheduler.call_at(wake, self._arbitrate, PRIO_CAN, owner=self._owner)
                 return
         else:
-            for queue in self._queues.values():
-                if queue:
-                    head = queue[0]
-                    key = (head.arbitration_id, head.seq)
-                    if best_key is None or key < best_key:
-                        best, best_key = head, key
+            heads = self._heads
+            queues = self._queues
+            while heads:
+                _, head = heapq.heappop(heads)
+                queue = queues.get(id(head.bus))
+                if queue and queue[0] is head:       # else its bus was detached meanwhile
+                    best = head
+                    break
         if best is None:
             self._busy = False
             return
-        self._queues[id(best.bus)].popleft()
+        bus_key = id(best.bus)
+        queue = self._queues[bus_key]
+        queue.popleft()
+        if not queue:
+            del self._active[bus_key]
+        elif not self._faulty:
+            nxt = queue[0]
+            heapq.heappush(self._heads, (nxt.key, nxt))
         self._npending -= 1
         bits = frame_bits(best.arbitration_id, best.data)
         if self.bitrate == 1_000_000:
@@ -535,17 +682,27 @@ class CanNetwork:
                 return
         latency = now_us - best.submit_us
         aid = best.arbitration_id
-        if latency > self.max_latency_us.get(aid, -1):
-            self.max_latency_us[aid] = latency
-        self._account(now_us, dur_us, bits, aid)
-        self._current = best
-        self.scheduler.call_at(now_us + dur_us, self._complete, PRIO_CAN, owner=self._owner)
-
-    def _account(self, start_us: int, dur_us: int, bits: int, aid: int) -> None:
+        max_lat = self.max_latency_us
+        if latency > max_lat.get(aid, -1):
+            max_lat[aid] = latency
         self.frames += 1
         self.bits += bits
-        self.per_id[aid] = self.per_id.get(aid, 0) + 1
-        self._occupy(start_us, dur_us)
+        per_id = self.per_id
+        per_id[aid] = per_id.get(aid, 0) + 1
+        if now_us // WINDOW_US == (now_us + dur_us - 1) // WINDOW_US:    # within one load window
+            self.busy_us += dur_us
+            w = now_us // WINDOW_US
+            win = self._window_busy
+            win[w] = win.get(w, 0) + dur_us
+        else:
+            self._occupy(now_us, dur_us)
+        self._current = best
+        ev = self._complete_event
+        if ev.cancelled:                      # spent: reuse it (no Event built per frame)
+            self.scheduler._reschedule_trusted(ev, now_us + dur_us)
+        else:
+            self._complete_event = self.scheduler._call_at_trusted(now_us + dur_us, self._complete,
+                                                                   PRIO_CAN, self._owner)
 
     def _occupy(self, start_us: int, dur_us: int) -> None:
         """Count ``dur_us`` of bus time from ``start_us`` (total and per 100 ms load window)."""
@@ -566,30 +723,32 @@ class CanNetwork:
         if self._faulty:
             lost = self._after_success(now_us, pending)
 
-        msg = can.Message(timestamp=now_us / 1e6, arbitration_id=pending.arbitration_id,
-                          is_extended_id=False, data=bytearray(pending.data),
-                          channel=self.channel, is_rx=True)
-        for tap in self._taps:
-            tap(msg)
-        interrupts = []
-        for bus in self._buses:
-            if bus is not sender:
-                if lost is not None and bus in lost:
+        aid = pending.arbitration_id
+        receivers = self._rx_table.get(aid)
+        if receivers is None:
+            receivers = self._receivers(aid)
+        taps = self._taps
+        if receivers or taps:
+            msg = _rx_message(now_us / 1e6, aid, pending.data, self.channel, True)
+            for tap in taps:
+                tap(msg)
+            interrupts = []
+            for bus, enqueue in receivers:
+                if bus is not sender:
+                    if lost is not None and bus in lost:
+                        continue
+                    fire = enqueue(msg)
+                elif getattr(bus, "receive_own_messages", False):
+                    fire = enqueue(_rx_message(msg.timestamp, aid, pending.data, self.channel, False))
+                else:
                     continue
-                fire = bus._deliver(msg)
-            elif getattr(bus, "receive_own_messages", False):
-                fire = bus._deliver(can.Message(timestamp=msg.timestamp, arbitration_id=msg.arbitration_id,
-                                                is_extended_id=False, data=bytearray(pending.data),
-                                                channel=self.channel, is_rx=False))
-            else:
-                continue
-            if fire:
-                interrupts.append(bus)
-        # Receive interrupts run at the frame's end time, after every receiver has the frame
-        # (inline: same time and priority as a separate PRIO_CAN event, one heap operation less).
-        # A frame a handler sends now joins the arbitration below.
-        for bus in interrupts:
-            bus._fire(now_us)
+                if fire:
+                    interrupts.append(bus)
+            # Receive interrupts run at the frame's end time, after every receiver has the frame
+            # (inline: same time and priority as a separate PRIO_CAN event, one heap operation
+            # less). A frame a handler sends now joins the arbitration below.
+            for bus in interrupts:
+                bus._fire(now_us)
         self._arbitrate(now_us)
 
     # -- fault confinement and injection ------------------------------------------------------
@@ -632,11 +791,14 @@ class CanNetwork:
             tx.dropped_bus_off += 1 + len(q)
             self._npending -= len(q)
             q.clear()
+            self._active.pop(id(pending.bus), None)
             if tx.auto_recover:
                 self._start_recovery(tx, now_us + dur_us)
         else:
             tx.retransmissions += 1
-            self._queues[id(pending.bus)].appendleft(pending)     # automatic retransmission
+            q = self._queues[id(pending.bus)]
+            q.appendleft(pending)                                 # automatic retransmission
+            self._active[id(pending.bus)] = q
             self._npending += 1
             if tx.state == ERROR_PASSIVE:
                 tx.suspend_until_us = now_us + dur_us + self._bit_us(SUSPEND_BITS)
@@ -672,6 +834,7 @@ class CanNetwork:
 
     def _enable_faults(self) -> None:
         self._faulty = True
+        self._heads.clear()                  # arbitration scans the non-empty queues from now on
 
     def inject_errors(self, *, kind: str = "corrupt", ids=None, sender=None, receivers=None,
                       probability: float = 1.0, count: int | None = None, start_us: int | None = None,

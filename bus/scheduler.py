@@ -200,6 +200,23 @@ class Scheduler:
         self._push(ev)
         return ev
 
+    def _call_at_trusted(self, t_us: int, callback: Callback, priority: int, owner: str | None) -> Event:
+        """:meth:`call_at` without its checks, for the simulator's own hot paths (the CAN
+        network schedules two events per frame) that pass an ``int`` ``t_us >= now_us``."""
+        ev = Event(t_us, priority, callback, owner, None)
+        self._seq += 1
+        heapq.heappush(self._heap, (t_us, priority, self._seq, ev))
+        return ev
+
+    def _reschedule_trusted(self, ev: Event, t_us: int) -> None:
+        """Queue a spent one-shot ``ev`` (it ran, so ``ev.cancelled`` is True) again at ``t_us``,
+        as :meth:`_call_at_trusted` with the same callback, priority and owner would, without
+        building a new :class:`Event` (the CAN network's per-frame events)."""
+        ev.t_us = t_us
+        ev.cancelled = False
+        self._seq += 1
+        heapq.heappush(self._heap, (t_us, ev.priority, self._seq, ev))
+
     def cancel(self, event: Event) -> None:
         """Cancel ``event`` (one-shot or periodic). Cancelling twice or after it ran is a no-op."""
         event.cancelled = True
@@ -243,22 +260,26 @@ class Scheduler:
             raise SimulationError("run_until called from inside a callback", None, self.now_us)
         heap = self._heap
         pop = heapq.heappop
-        push = heapq.heappush
+        replace = heapq.heapreplace
         self._running = True
         n = 0
         try:
             while heap and heap[0][0] <= t_us:
-                t, prio, _, ev = pop(heap)
+                t, prio, _, ev = heap[0]
                 if ev.cancelled:
+                    pop(heap)
                     continue
                 self.now_us = t
                 period = ev.period_us
                 if period is None:
+                    pop(heap)
                     ev.cancelled = True  # a one-shot event is spent once it runs
                 else:
+                    # the next repetition replaces this entry: one sift instead of pop + push
+                    # (keys are unique, so the order of events is the same either way)
                     ev.t_us = t + period
                     self._seq += 1
-                    push(heap, (ev.t_us, prio, self._seq, ev))
+                    replace(heap, (ev.t_us, prio, self._seq, ev))
                 n += 1
                 try:
                     ev.callback(t)

@@ -92,12 +92,35 @@ class SimBus(can.BusABC):
             raise BusError(f"{self.name}: send on a shut-down bus")
         self.network.submit(self, msg)
 
+    def send_frame(self, arbitration_id: int, data: bytes) -> None:
+        """Queue a standard data frame given as identifier and data (no ``can.Message`` built).
+
+        The same as ``send(can.Message(arbitration_id=..., data=..., is_extended_id=False))``,
+        for the boards' CAN controllers (the hot path); same errors as :meth:`send`.
+        """
+        if not self._attached:
+            raise BusError(f"{self.name}: send on a shut-down bus")
+        self.network.submit_frame(self, arbitration_id, bytes(data))
+
     # -- receive ----------------------------------------------------------------------------
     def _apply_filters(self, filters) -> None:
         """python-can hook: precompute a set when every filter is an exact 11-bit match."""
         self._exact_ids = None
         if filters and all(f.get("can_mask") == 0x7FF and not f.get("extended", False) for f in filters):
             self._exact_ids = frozenset(f["can_id"] for f in filters)
+        network = getattr(self, "network", None)
+        if network is not None:
+            network.filters_changed()
+
+    def _accepts(self, arbitration_id: int) -> bool:
+        """True if the acceptance filters pass a standard frame with this identifier (the
+        network asks once per identifier and keeps the answer until the filters change)."""
+        exact = self._exact_ids
+        if exact is not None:
+            return arbitration_id in exact
+        if self._filters is None:
+            return True
+        return self._matches_filters(can.Message(arbitration_id=arbitration_id, is_extended_id=False))
 
     def _deliver(self, msg: can.Message) -> bool:
         """Called by the network at the end of a frame (shared read-only ``msg``).
@@ -111,6 +134,11 @@ class SimBus(can.BusABC):
                 return False
         elif self._filters is not None and not self._matches_filters(msg):
             return False
+        return self._enqueue(msg)
+
+    def _enqueue(self, msg: can.Message) -> bool:
+        """Queue a frame the filters accept (see :meth:`_deliver`); the network's delivery table
+        calls this directly for the identifiers :meth:`_accepts` passes."""
         rx = self._rx
         if self._rx_queue_size is not None and len(rx) >= self._rx_queue_size:
             rx.popleft()
@@ -134,6 +162,16 @@ class SimBus(can.BusABC):
         if self._rx:
             return self._rx.popleft()
         return None
+
+    def drain_rx(self) -> list:
+        """Every frame delivered and not yet read, oldest first, removed from the queue (what
+        ``recv()`` would return one by one until ``None``)."""
+        rx = self._rx
+        if not rx:
+            return []
+        out = list(rx)
+        rx.clear()
+        return out
 
     def set_rx_callback(self, fn: Callable[[], object] | None) -> None:
         """Install the receive interrupt: ``fn()`` runs at the end of each accepted delivery."""

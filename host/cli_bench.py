@@ -1,44 +1,117 @@
-"""``schmidt-fil bench``: real-time factor of the whole network, and of the naive design.
+"""``schmidt-fil bench``: real-time factor of a network, and of the naive design, with bus load.
 
-Prints the real-time factor (simulated seconds per wall second) of the full telescope network
-(two axis controllers, two EnDat readers, the focus controller and the host on one emulated CAN
-bus, plant included) in fast mode, and — in the same process, same scenario, same simulated
-span — that of the naive design where every board has its own python-can ``virtual`` Bus
-(python-can copies each frame once per attached Bus). The ratio is ``rtf / rtf_naive``.
+Prints the real-time factor (simulated seconds per wall second) of a telescope network (its
+boards and the host on one emulated CAN bus, plant included) in fast mode, and — in the same
+process, same scenario, same simulated span — that of the naive design where every node has its
+own python-can ``virtual`` Bus (python-can copies each frame once per attached Bus), their ratio,
+the bus load the emulated bus measured over the timed span (busy time incl. stuff bits and
+intermission / elapsed time) and the process's peak memory.
 
-This is a benchmark, not a test: numbers depend on the machine and its load. Target (issue 2):
-``rtf`` ≥ 50 on one core of the 2-core reference machine.
+``--network NAME`` chooses the network by name (:func:`networks`: ``boards.registry.NETWORKS``
+once the networks of issue 12 exist there, else ``basic`` = every board of the registry, what
+``build_network`` builds). A network is only a list of board instance names handed to
+:func:`measure`; nothing else here depends on which boards run.
+
+This is a benchmark, not a test: numbers depend on the machine and its load. Targets (issue 12,
+2-core reference machine): ``basic`` ≥ 80× real time; ``full`` ≥ 50× and ≥ 10× the naive design.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import resource
 import time
 from pathlib import Path
 
 DEFAULT_SCENARIO = Path(__file__).resolve().parent.parent / "scenarios" / "tracking-low-preload.yaml"
 
+#: Real-time factor targets per network (issue 12); a network without an entry has none.
+TARGET_RTF = {"basic": 80, "full": 50}
+#: Target of rtf / rtf_naive per network (issue 12).
+TARGET_RATIO = {"full": 10}
+
+
+def networks() -> dict[str, tuple[str, ...]]:
+    """Network name -> board instance names (registry names, ``boards.registry.BOARD_NAMES``).
+
+    The registry's ``NETWORKS`` table when it has one (issue 12: ``basic``, ``lab``, ``full``);
+    otherwise ``basic`` = every board of the registry (the five boards; the host is always there).
+    """
+    from boards import registry
+
+    table = getattr(registry, "NETWORKS", None)
+    if table:
+        return {name: tuple(boards) for name, boards in table.items()}
+    return {"basic": tuple(registry.BOARD_NAMES)}
+
 
 def add_subparser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="benchmark: real-time factor of the network vs the naive one-virtual-bus-per-board design")
+    p.add_argument("--network", default="basic",
+                   help=f"network to time, by name (default basic; known: {', '.join(networks())})")
     p.add_argument("--scenario", type=Path, default=None, help="scenario to time (default: tracking-low-preload)")
     p.add_argument("--seconds", type=float, default=20.0, help="simulated seconds per measurement (default 20)")
     p.add_argument("--repeat", type=int, default=3, help="measurements per design; the best is reported (default 3)")
-    p.add_argument("--json", action="store_true", help="print JSON: rtf, rtf_naive, ratio, boards, ...")
+    p.add_argument("--json", action="store_true",
+                   help="print JSON: rtf, rtf_naive, ratio, boards, bus_load_pct, peak_memory, ...")
     p.set_defaults(func=run)
 
 
-def measure(scenario, seconds: float, interface: str) -> dict:
+def _with_boards(scenario, boards):
+    """``scenario`` running network ``boards``: a name of :func:`networks` or a list of board
+    instance names of the registry (None: the scenario's own).
+
+    Raises
+    ------
+    ValueError
+        If the scenario schema cannot choose boards yet (no ``network`` field) and ``boards`` is
+        not every board of the registry (what ``build_network`` builds then).
+    """
+    from boards.registry import BOARD_NAMES
+
+    if boards is None:
+        return scenario
+    if "network" in type(scenario).model_fields:
+        return scenario.model_copy(update={"network": boards if isinstance(boards, str) else list(boards)})
+    if isinstance(boards, str):
+        boards = networks()[boards]
+    if tuple(boards) == tuple(BOARD_NAMES):
+        return scenario
+    raise ValueError(f"this build cannot choose boards yet (scenario has no 'network' field); "
+                     f"asked for {list(boards)}, the registry has {list(BOARD_NAMES)}")
+
+
+def measure(scenario, seconds: float, interface: str, boards=None) -> dict:
     """Build the network with ``interface`` and time ``seconds`` of simulated tracking.
 
-    Returns a dict with ``rtf`` (simulated s per wall s), ``wall_s``, ``boards``, ``frames``.
+    Parameters
+    ----------
+    scenario : host.scenario.Scenario
+        What to run (its first segment's command is sent after the health check).
+    seconds : float
+        Simulated span timed, s.
+    interface : {"sim", "virtual"}
+        The emulated bus, or the naive one-``virtual``-Bus-per-node design.
+    boards : str or sequence of str, optional
+        The network: a name of :func:`networks` or a list of board instance names (default:
+        the scenario's own).
+
+    Returns
+    -------
+    dict
+        ``rtf`` (simulated s per wall s), ``rtf_cpu`` (simulated s per CPU second of this process:
+        what other processes on a shared machine change least), ``wall_s``, ``boards`` (count),
+        ``frames`` (received by
+        the host), and on the emulated bus ``bus_frames`` and ``bus_load_pct`` over the timed span
+        (``None`` on ``virtual``, which has no bus timing).
     """
     from host.network import build_network
 
-    sc = scenario.model_copy(update={"bus": scenario.bus.model_copy(update={"interface": interface,
-                                                                         "channel": f"bench-{interface}"})})
+    sc = _with_boards(scenario, boards)
+    sc = sc.model_copy(update={"bus": sc.bus.model_copy(update={"interface": interface,
+                                                               "channel": f"bench-{interface}"})})
     tel = build_network(sc)
     try:
         client = tel.client
@@ -47,12 +120,21 @@ def measure(scenario, seconds: float, interface: str) -> dict:
             raise RuntimeError(f"bench network failed its health check: {health.missing}")
         seg = sc.segments[0]
         client.command_axis(seg.axis if seg.axis != "both" else "ra", seg.mode, seg.direction, seg.rate_arcsec_s)
+        net = tel.network
         t0 = tel.scheduler.now_us
-        w0 = time.perf_counter()
+        busy0, frames0 = (net.busy_us, net.frames) if net is not None else (0, 0)
+        c0, w0 = time.process_time(), time.perf_counter()
         tel.scheduler.run_until(t0 + int(seconds * 1e6))
         wall = time.perf_counter() - w0
-        return {"rtf": seconds / wall, "wall_s": wall, "boards": len(tel.boards),
-                "frames": client.frames_received}
+        cpu = time.process_time() - c0
+        span_us = tel.scheduler.now_us - t0
+        out = {"rtf": seconds / wall, "rtf_cpu": seconds / cpu if cpu > 0 else None,
+               "wall_s": wall, "boards": len(tel.boards),
+               "frames": client.frames_received, "bus_frames": None, "bus_load_pct": None}
+        if net is not None:
+            out["bus_frames"] = net.frames - frames0
+            out["bus_load_pct"] = 100.0 * (net.busy_us - busy0) / span_us
+        return out
     finally:
         tel.close()
 
@@ -86,42 +168,77 @@ def plant_cost_us_per_tick(drive_model: str, ticks: int = 2000, interpreted: boo
         plant_axis.kernel = saved
 
 
-def run(args: argparse.Namespace) -> int:
-    from host.scenario import load_scenario
+def bench(scenario, network: str, seconds: float, repeat: int) -> dict:
+    """Measure network ``network`` (a key of :func:`networks`) both ways; the JSON of ``--json``.
+
+    Raises
+    ------
+    ValueError
+        For an unknown network name (the message lists the known ones).
+    """
     from plant import kernel
 
-    scenario = load_scenario(args.scenario or DEFAULT_SCENARIO)
+    nets = networks()
+    if network not in nets:
+        raise ValueError(f"unknown network {network!r}; known: {', '.join(nets)}")
+    boards = nets[network]
     best = {}
     for interface in ("sim", "virtual"):
-        runs = [measure(scenario, args.seconds, interface) for _ in range(max(1, args.repeat))]
+        runs = [measure(scenario, seconds, interface, network) for _ in range(max(1, repeat))]
         best[interface] = max(runs, key=lambda r: r["rtf"])
-    out = {
-        "rtf": round(best["sim"]["rtf"], 2),
+    sim = best["sim"]
+    return {
+        "network": network,
+        "rtf": round(sim["rtf"], 2),
         "rtf_naive": round(best["virtual"]["rtf"], 2),
-        "ratio": round(best["sim"]["rtf"] / best["virtual"]["rtf"], 2),
-        "boards": best["sim"]["boards"],
-        "simulated_s": args.seconds,
-        "repeat": args.repeat,
+        "ratio": round(sim["rtf"] / best["virtual"]["rtf"], 2),
+        "rtf_cpu": round(sim["rtf_cpu"], 2) if sim["rtf_cpu"] else None,
+        "rtf_naive_cpu": round(best["virtual"]["rtf_cpu"], 2) if best["virtual"]["rtf_cpu"] else None,
+        "load_average_1min": round(os.getloadavg()[0], 2),
+        "boards": sim["boards"],
+        "board_names": list(boards),
+        "bus_load_pct": round(sim["bus_load_pct"], 2),
+        "bus_frames_per_s": round(sim["bus_frames"] / seconds, 1),
+        "peak_memory": {"max_rss_mib": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)},
+        "simulated_s": seconds,
+        "repeat": repeat,
         "scenario": scenario.name,
-        "frames_received_by_host": best["sim"]["frames"],
-        "max_rss_mib": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+        "frames_received_by_host": sim["frames"],
         "plant_backend": kernel.BACKEND,
-        "plant_us_per_tick": {m: round(min(plant_cost_us_per_tick(m) for _ in range(args.repeat)), 2)
+        "plant_us_per_tick": {m: round(min(plant_cost_us_per_tick(m) for _ in range(repeat)), 2)
                               for m in ("twin_train", "rigid")},
         "plant_us_per_tick_interpreted": {
-            m: round(min(plant_cost_us_per_tick(m, interpreted=True) for _ in range(args.repeat)), 2)
+            m: round(min(plant_cost_us_per_tick(m, interpreted=True) for _ in range(repeat)), 2)
             for m in ("twin_train", "rigid")},
-        "target_rtf": 50,
+        "target_rtf": TARGET_RTF.get(network),
+        "target_ratio": TARGET_RATIO.get(network),
     }
+
+
+def run(args: argparse.Namespace) -> int:
+    from host.scenario import load_scenario
+
+    if args.network not in networks():      # before anything runs
+        raise ValueError(f"unknown network {args.network!r}; known: {', '.join(networks())}")
+    scenario = load_scenario(args.scenario or DEFAULT_SCENARIO)
+    out = bench(scenario, args.network, args.seconds, args.repeat)
     if args.json:
         print(json.dumps(out))
-    else:
-        print(f"network ({out['boards']} boards + host, in-process sim bus): {out['rtf']:8.1f}x real time")
-        print(f"naive (one python-can virtual Bus per board):            {out['rtf_naive']:8.1f}x real time")
-        print(f"ratio: {out['ratio']:.2f}   target rtf >= 50: {'met' if out['rtf'] >= 50 else 'NOT met'}   "
-              f"max RSS {out['max_rss_mib']} MiB")
-        pc, pi = out["plant_us_per_tick"], out["plant_us_per_tick_interpreted"]
-        print(f"one axis plant alone, per 5 ms tick ({out['plant_backend']} kernel): twin_train "
-              f"{pc['twin_train']} µs, rigid {pc['rigid']} µs; interpreted: twin_train "
-              f"{pi['twin_train']} µs, rigid {pi['rigid']} µs")
+        return 0
+
+    def verdict(value, target):
+        return "" if target is None else f"  (target >= {target}: {'met' if value >= target else 'NOT met'})"
+
+    print(f"network {out['network']!r} ({out['boards']} boards + host, in-process sim bus): "
+          f"{out['rtf']:8.1f}x real time{verdict(out['rtf'], out['target_rtf'])}")
+    print(f"naive (one python-can virtual Bus per node):            {out['rtf_naive']:8.1f}x real time")
+    print(f"per CPU second of this process: network {out['rtf_cpu']}x, naive {out['rtf_naive_cpu']}x "
+          f"(machine load average {out['load_average_1min']}: wall figures drop when other processes run)")
+    print(f"ratio: {out['ratio']:.2f}{verdict(out['ratio'], out['target_ratio'])}   bus load "
+          f"{out['bus_load_pct']:.1f} % ({out['bus_frames_per_s']:.0f} frames/s)   "
+          f"peak memory (max RSS) {out['peak_memory']['max_rss_mib']} MiB")
+    pc, pi = out["plant_us_per_tick"], out["plant_us_per_tick_interpreted"]
+    print(f"one axis plant alone, per 5 ms tick ({out['plant_backend']} kernel): twin_train "
+          f"{pc['twin_train']} µs, rigid {pc['rigid']} µs; interpreted: twin_train "
+          f"{pi['twin_train']} µs, rigid {pi['rigid']} µs")
     return 0

@@ -144,3 +144,60 @@ def test_explicit_network_argument(sched, request):
     sched.run_until(1_000)
     assert b.recv() is not None
     net.close()
+
+
+def test_filters_changed_while_running_apply_to_the_next_frame(sched, channel):
+    """The network's identifier -> receivers table follows set_filters, attach and detach:
+    a bus that changes its filters between frames gets exactly what the new filters pass."""
+    a = SimBus(channel)
+    b = SimBus(channel, can_filters=[{"can_id": 0x181, "can_mask": 0x7FF, "extended": False}])
+    got = []
+    b.set_rx_callback(lambda: got.append(b.recv().arbitration_id))
+    for aid in (0x181, 0x182):
+        a.send(frame(aid))
+    sched.run_until(1_000)
+    b.set_filters([{"can_id": 0x180, "can_mask": 0x7F0, "extended": False}])   # a mask filter
+    for aid in (0x181, 0x182, 0x201):
+        a.send(frame(aid))
+    sched.run_until(2_000)
+    b.set_filters(None)                                                          # everything
+    c = SimBus(channel)                                                          # attached late
+    for aid in (0x181, 0x201):
+        a.send(frame(aid))
+    sched.run_until(3_000)
+    assert got == [0x181, 0x181, 0x182, 0x181, 0x201]
+    assert [m.arbitration_id for m in iter(c.recv, None)] == [0x181, 0x201]
+    c.shutdown()
+    a.send(frame(0x181))
+    sched.run_until(4_000)
+    assert got[-1] == 0x181 and c.recv() is None
+
+
+def test_send_frame_is_send_of_a_message(sched, channel):
+    """send_frame(id, data) puts the same frame on the wire as send(Message), same errors."""
+    a, b = SimBus(channel), SimBus(channel)
+    a.send_frame(0x181, b"\x01\x02")
+    a.send(frame(0x181, b"\x01\x02"))
+    sched.run_until(1_000)
+    first, second = b.recv(), b.recv()
+    assert first.equals(second, timestamp_delta=None) and first.is_rx and first.dlc == 2
+    with pytest.raises(BusError):
+        a.send_frame(0x800, b"")
+    with pytest.raises(BusError):
+        a.send_frame(0x181, bytes(9))
+    a.shutdown()
+    with pytest.raises(BusError):
+        a.send_frame(0x181, b"")
+
+
+def test_received_message_equals_the_constructor_built_one():
+    """The network's fast Message (no __init__) has every field can.Message(...) would give."""
+    from bus import network as N
+
+    fast = N._rx_message_fast(1.25, 0x181, b"\x01\x02\x03", "ch", True)
+    ref = N._rx_message_init(1.25, 0x181, b"\x01\x02\x03", "ch", True)
+    assert N._rx_message is N._rx_message_fast         # python-can's slots are the known ones
+    for slot in N._MESSAGE_SLOTS:
+        assert getattr(fast, slot) == getattr(ref, slot), slot
+        assert type(getattr(fast, slot)) is type(getattr(ref, slot)), slot
+    assert fast.equals(ref) and repr(fast) == repr(ref)

@@ -141,10 +141,22 @@ def test_boards_run_on_a_plain_python_can_bus():
 def test_bench_json_keys(capsys):
     """schmidt-fil bench --json prints rtf, rtf_naive, ratio and boards (figures not asserted:
     speed is checked by the benchmark, not by tests)."""
-    assert main(["bench", "--seconds", "0.5", "--repeat", "1", "--json"]) == 0
+    assert main(["bench", "--network", "basic", "--seconds", "0.5", "--repeat", "1", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert {"rtf", "rtf_naive", "ratio", "boards"} <= set(out)
+    assert {"rtf", "rtf_naive", "ratio", "boards", "bus_load_pct", "peak_memory", "network"} <= set(out)
     assert out["boards"] == 5 and out["rtf"] > 0 and out["rtf_naive"] > 0
+    assert out["network"] == "basic" and out["peak_memory"]["max_rss_mib"] > 0
+    # the load is the bus model's occupied time: between the shortest (0-byte, 47 bits) and the
+    # longest (8-byte, 135 bits) frame per frame counted, at 1 Mbit/s (1 bit = 1 µs)
+    fps = out["bus_frames_per_s"]
+    assert fps > 0 and fps * 47 / 1e4 <= out["bus_load_pct"] <= fps * 135 / 1e4
+
+
+def test_bench_unknown_network_fails_before_running(capsys):
+    """An unknown --network name exits 1 with one line listing the known networks."""
+    assert main(["bench", "--network", "nope", "--seconds", "0.1", "--repeat", "1"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "'nope'" in err and "basic" in err
 
 
 def test_cli_reports_bad_scenario_in_one_line(tmp_path, capsys):

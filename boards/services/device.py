@@ -146,6 +146,10 @@ class CanopenDevice:
         self._tpdo_ids: Set[int] = {p.cob_id_for(self.node_id) for p in self.kind.tpdos}
         self._rpdo_ids: Set[int] = {p.cob_id_for(self.node_id) for p in self.kind.rpdos}
         self._consumed: Set[int] = set()
+        #: COB-IDs :meth:`receive` hands to the canopen services (NMT, SDO request, the consumed
+        #: heartbeats); every other frame (the PDOs) skips the canopen dispatch
+        self._service_ids: frozenset = frozenset({NMT_COB_ID, self.node.sdo.rx_cobid})
+        self._nmt_slave = self.node.nmt
         self.powered = False
         self._booted_in_reset = False
         self.boots = 0
@@ -240,17 +244,14 @@ class CanopenDevice:
         bus.errors.MalformedFrame
             For a service frame that does not decode (the board counts it).
         """
-        if not self.powered:
+        if not self.powered or can_id not in self._service_ids:
             return False
-        if (can_id == NMT_COB_ID or can_id == self.node.sdo.rx_cobid
-                or heartbeat_node(can_id) in self._consumed):
-            self.network.notify(can_id, bytes(data), self.scheduler.now_us * 1e-6)
-            return True
-        return False
+        self.network.notify(can_id, bytes(data), self.scheduler.now_us * 1e-6)
+        return True
 
     def accept_rpdo(self, can_id: int) -> bool:
         """True if a received PDO on ``can_id`` may be acted on now (NMT OPERATIONAL)."""
-        if self.operational:
+        if self.powered and self._nmt_slave._state == _OPERATIONAL:      # self.operational
             return True
         self.rpdos_ignored += 1
         return False
@@ -266,10 +267,10 @@ class CanopenDevice:
         if cob_id not in self._tpdo_ids:
             raise ValueError(f"{self.name}: 0x{cob_id:03X} is not a TPDO of this node "
                              f"({sorted(hex(i) for i in self._tpdo_ids)})")
-        if not self.operational:
+        if not (self.powered and self._nmt_slave._state == _OPERATIONAL):   # self.operational
             self.pdos_suppressed += 1
             return False
-        self._send(cob_id, data)
+        self._transmit(cob_id, bytes(data))      # self._send(): powered is checked above
         self.pdos_sent += 1
         return True
 
@@ -304,6 +305,8 @@ class CanopenDevice:
             self.network.unsubscribe(heartbeat_cob_id(n), self._on_heartbeat)
         times = self._consumer_times()
         self._consumed = set(times)
+        self._service_ids = frozenset({NMT_COB_ID, self.node.sdo.rx_cobid}
+                                      | {heartbeat_cob_id(n) for n in self._consumed})
         for n in self._consumed:
             self.network.subscribe(heartbeat_cob_id(n), self._on_heartbeat)
         self.consumer.configure(times)
