@@ -9,10 +9,11 @@ sensor's contact), CAN.
 Every ``sample_period_us`` (1 s) the timer ISR samples the four inputs, converts them, updates
 the flags and queues ``WEATHER_STATUS`` (TPDO1, 0x18E):
 
-* **HIGH_WIND** sets at once when the wind ≥ ``high_wind_limit_m_s`` (15 m/s); it clears when the
-  wind has stayed below ``high_wind_clear_m_s`` (12 m/s) for ``clear_hold_s`` (60 s).
+* **HIGH_WIND** sets at once when the wind ≥ ``high_wind_limit_m_s`` (15 m/s); it clears at the
+  first sample at which the samples have been below ``high_wind_clear_m_s`` (12 m/s) for
+  ``clear_hold_s`` (60 s), counted from the first such sample.
 * **RAIN** sets at once when the rain sensor is wet or the humidity ≥ ``humidity_limit_pct``
-  (90 %); it clears when neither has been seen for ``clear_hold_s``.
+  (90 %); it clears when the samples have been dry and below that humidity for ``clear_hold_s``.
 
 The station only reports; the host decides (host/client.py: stop, refuse, park the dome). It
 sends no EMCY for the weather (weather is not a fault of the station).
@@ -110,8 +111,8 @@ class WeatherStation(Board):
         self.wind_m_s = 0.0
         self.rain_wet = False
         self.flags = 0
-        self._wind_seen_us: Optional[int] = None    # last sample at or above the clear level
-        self._rain_seen_us: Optional[int] = None    # last sample wet or humid
+        self._wind_low_since_us: Optional[int] = None   # first sample of the present run below the clear level
+        self._rain_dry_since_us: Optional[int] = None   # first sample of the present run dry and not humid
         self.samples = 0
         self.high_wind_events = 0
         self.rain_events = 0
@@ -134,20 +135,26 @@ class WeatherStation(Board):
         f = self.flags
         wind_flag, rain_flag = int(proto.WeatherFlags.HIGH_WIND), int(proto.WeatherFlags.RAIN)
         if self.wind_m_s >= self.high_wind_clear_m_s:
-            self._wind_seen_us = now_us
+            self._wind_low_since_us = None
+        elif self._wind_low_since_us is None:
+            self._wind_low_since_us = now_us
         if self.wind_m_s >= self.high_wind_limit_m_s:
             if not f & wind_flag:
                 self.high_wind_events += 1
             f |= wind_flag
-        elif f & wind_flag and (self._wind_seen_us is None or now_us - self._wind_seen_us >= self.clear_hold_us):
+        elif (f & wind_flag and self._wind_low_since_us is not None
+              and now_us - self._wind_low_since_us >= self.clear_hold_us):
             f &= ~wind_flag
         if self.rain_wet or self.humidity_pct >= self.humidity_limit_pct:
-            self._rain_seen_us = now_us
+            self._rain_dry_since_us = None
             if not f & rain_flag:
                 self.rain_events += 1
             f |= rain_flag
-        elif f & rain_flag and now_us - self._rain_seen_us >= self.clear_hold_us:
-            f &= ~rain_flag
+        else:
+            if self._rain_dry_since_us is None:
+                self._rain_dry_since_us = now_us
+            if f & rain_flag and now_us - self._rain_dry_since_us >= self.clear_hold_us:
+                f &= ~rain_flag
         self.flags = f
         self.queue(proto.weather_status_cob_id(self.node_id), proto.encode_weather_status(
             f, int(round(self.temperature_c * 100)), int(round(self.humidity_pct * 100)),
