@@ -86,6 +86,11 @@ class Session:
             self._close_files()
             raise
         try:
+            for i, f in enumerate(scenario.faults):      # issue 12: not every registry board is built
+                if f.board is not None and f.board not in self.tel.boards:
+                    from host.scenario import ScenarioError
+                    raise ScenarioError(scenario.source_path, None, f"faults[{i}].board",
+                                        f"{f.board!r} is not in this network ({', '.join(self.tel.boards)})")
             if not logs_first:
                 self._open_logs(header)
             # sim: every frame on the wire; other buses: every frame a monitor receives (a
