@@ -29,7 +29,7 @@ import can
 from bus import protocol as P
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_HOST, Scheduler
-from boards.registry import NODE_NAMES, REGISTRY, nodes_of_kind
+from boards.registry import BOARDS, DEFAULT_BOARD_NAMES, NODE_NAMES, REGISTRY, nodes_of_kind
 from bus.units import TICK_US, duty_to_q15, q15_to_duty
 
 __all__ = ["HostClient", "Health", "AxisState", "NODE_NAMES", "AXIS_NODES"]
@@ -149,7 +149,8 @@ class HostClient:
     scheduler : Scheduler
         The simulated clock.
     expected_nodes : tuple of int
-        Nodes that must answer the power-on health check.
+        Nodes that must answer the power-on health check (default: the registry's default
+        boards; ``build_network`` passes the boards it built).
     preset_rates_arcsec_s : dict
         Firmware preset rates keyed by ``(mode name, axis)``, to report setpoints.
     open_loop_duty : callable(rate_arcsec_s, axis) -> float
@@ -167,7 +168,7 @@ class HostClient:
 
     bus: can.BusABC
     scheduler: Scheduler
-    expected_nodes: tuple = tuple(NODE_NAMES)
+    expected_nodes: tuple = tuple(int(BOARDS[n][1].node_id) for n in DEFAULT_BOARD_NAMES)
     preset_rates_arcsec_s: dict = field(default_factory=dict)
     open_loop_duty: Callable[[float, str], float] | None = None
     adc_to_current_a: Callable[[int], float] = lambda c: c * (5.0 / 1023) / 0.1
