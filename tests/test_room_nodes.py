@@ -469,6 +469,8 @@ segments:
     lines = [ln for ln in (tmp_path / "display.log").read_text().splitlines() if not ln.startswith("#")]
     assert len(lines) == int(rep["simulated_s"] / 0.25)
     assert rep["boards"]["weather"]["high_wind_events"] == 1
+    # the dome plant (plant/dome.py, the truth) never turned faster than the firmware's limit
+    assert 0 < rep["room"]["dome"]["peak_rate_deg_s"] <= PARAMS.dome.max_rate_deg_s + 1e-9
 
 
 def test_dome_segment_without_a_dome_fails_before_running(tmp_path):
