@@ -114,8 +114,9 @@ class Telescope:
         for p in self.plants.values():
             p.advance_to(t)
         self.focus_plant.advance_to(t)
-        self.dome_plant.advance_to(t)
-        self.weather.advance_to(t)
+        for p in (self.dome_plant, self.weather):
+            if p is not None:
+                p.advance_to(t)
 
     def inject_fault(self, fault, now_us: int) -> None:
         """Apply one scenario fault (the table :data:`host.faults.FAULTS`)."""
