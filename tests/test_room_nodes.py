@@ -492,3 +492,31 @@ def test_a_fault_on_a_board_not_in_the_network_fails_before_running(tmp_path):
                         "segments:\n  - {name: a, mode: stop, duration_s: 1}\n", str(tmp_path / "s.yaml"))
     with pytest.raises(ScenarioError, match=r"faults\[0\]\.board"):
         run_scenario(sc, None)
+
+
+def test_dome_objects_are_written_and_range_checked_over_sdo(tmp_path):
+    """An SDO download of the park azimuth (0x2400:4) and deadband (0x2400:3) reaches the dome
+    firmware; a park azimuth beyond 359.99° is aborted by the EDS range and changes nothing;
+    the drive limits are read-only."""
+    import canopen
+    from canopen_sim import PumpedNetwork
+    from host.network import build_network
+    from host.scenario import parse_scenario
+    sc = parse_scenario("name: r\nsegments:\n  - {name: a, mode: stop, duration_s: 1}\n", str(tmp_path / "s.yaml"))
+    tel = build_network(sc, boards=("ra-axis", "dec-axis", "dome"))
+    try:
+        master = PumpedNetwork(tel.scheduler, tel.network)
+        tel.scheduler.run_until(20_000)
+        node = master.add_remote("dome", int(P.NodeId.DOME))
+        dome = tel.boards["dome"]
+        node.sdo[0x2400][4].raw = 9000
+        node.sdo[0x2400][3].raw = 150
+        assert (dome.park_azimuth_deg, dome.deadband_deg) == (90.0, 1.5)
+        with pytest.raises(canopen.SdoAbortedError):
+            node.sdo[0x2400][4].raw = 36000
+        with pytest.raises(canopen.SdoAbortedError):
+            node.sdo[0x2400][1].raw = 5000
+        assert dome.park_azimuth_deg == 90.0 and dome.max_rate_deg_s == PARAMS.dome.max_rate_deg_s
+        assert node.sdo[0x2400][5].raw == round(PARAMS.site.latitude_deg * 1e6)
+    finally:
+        tel.close()
