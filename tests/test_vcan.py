@@ -30,7 +30,6 @@ from boards.registry import BOARDS as _REG_BOARDS, DEFAULT_BOARD_NAMES as _DEFAU
 #: The boards a default network builds (the room nodes of issue 12 are built only by name).
 DEFAULT_NODES = tuple(int(_REG_BOARDS[n][1].node_id) for n in _DEFAULT_NAMES)
 
-
 ROOT = Path(__file__).resolve().parent.parent
 CHANNEL = "vcan0"
 SCENARIO = ROOT / "scenarios" / "tracking-vcan0.yaml"
