@@ -4,7 +4,9 @@ Boards (paper §3.3-§3.4; node ids from docs/architecture.md):
 
 * :class:`boards.axis_controller.AxisController` — dsPIC30F3011, nodes 1 (RA) and 2 (DEC);
 * :class:`boards.position_reader.PositionReader` — PIC18F4480 EnDat reader, nodes 3 and 4;
-* :class:`boards.focus_controller.FocusController` — PIC18F4431, node 5.
+* :class:`boards.focus_controller.FocusController` — PIC18F4431, node 5;
+* issue 12, room nodes: :class:`boards.display.DisplayUnit` (0x0C),
+  :class:`boards.dome.DomeController` (0x0D), :class:`boards.weather.WeatherStation` (0x0E).
 
 Peripherals live in :mod:`boards.peripherals`; PI law and drive laws in :mod:`boards.control`;
 gain tuning from the plant model in :mod:`boards.tuning`; the EnDat frame in :mod:`boards.endat`.

@@ -30,6 +30,10 @@ __all__ = [
     "CanController",
     "Uart",
     "StepDir",
+    "Dac",
+    "AbsoluteEncoderInput",
+    "DigitalInput",
+    "CharacterDisplay",
     "FCY_HZ",
     "PWM_FREQUENCY_HZ",
 ]
@@ -591,3 +595,110 @@ POLL_PRIORITY = PRIO_BACKGROUND
 from boards.endat import EnDatMaster  # noqa: E402  (defined with its protocol)
 
 __all__.append("EnDatMaster")
+
+
+# -- issue 12, room nodes (dome, weather station, display unit) -----------------------------------
+
+
+class Dac:
+    """Digital-to-analog converter giving a drive's bipolar speed reference (e.g. ±10 V into a
+    variable-frequency drive), normalised to −1 .. 1 of full scale.
+
+    The written value is quantised to ``bits`` (two's complement: ±(2**(bits−1) − 1) steps) and
+    handed to the port at once.
+
+    Parameters
+    ----------
+    on_change : callable(fraction)
+        Port: the analog output, −1 .. 1 of full scale.
+    bits : int
+        Resolution (12 assumed, plant/parameters.yaml ``dome.dac_bits``).
+    """
+
+    def __init__(self, on_change: Callable[[float], None], bits: int = 12) -> None:
+        self.on_change = on_change
+        self.bits = int(bits)
+        self.steps = (1 << (self.bits - 1)) - 1
+        self.code = 0
+
+    @property
+    def quantum(self) -> float:
+        """One step of the output, fraction of full scale."""
+        return 1.0 / self.steps
+
+    def write(self, fraction: float) -> float:
+        """Set the output (clipped to ±1, quantised); returns the fraction written."""
+        f = max(-1.0, min(1.0, float(fraction)))
+        self.code = int(round(f * self.steps))
+        out = self.code / self.steps
+        self.on_change(out)
+        return out
+
+    def reset(self) -> None:
+        """Power-on: output zero."""
+        self.code = 0
+        self.on_change(0.0)
+
+
+class AbsoluteEncoderInput:
+    """Synchronous-serial (SSI) absolute encoder input: one read returns the encoder word.
+
+    Parameters
+    ----------
+    read_word : callable() -> int
+        Port: the encoder's position word, 0 .. counts_per_rev − 1.
+    counts_per_rev : int
+        Counts per revolution (the word is reduced modulo it).
+    """
+
+    def __init__(self, read_word: Callable[[], int], counts_per_rev: int) -> None:
+        self.read_word = read_word
+        self.counts_per_rev = int(counts_per_rev)
+        self.reads = 0
+
+    def read(self) -> int:
+        """One read: the word, counts."""
+        self.reads += 1
+        return int(self.read_word()) % self.counts_per_rev
+
+    def reset(self) -> None:
+        self.reads = 0
+
+
+class DigitalInput:
+    """One digital input pin (e.g. a rain sensor's relay contact); read synchronously."""
+
+    def __init__(self, read_level: Callable[[], bool]) -> None:
+        self.read_level = read_level
+
+    def read(self) -> bool:
+        return bool(self.read_level())
+
+    def reset(self) -> None:
+        """Nothing to reset (an input)."""
+
+
+class CharacterDisplay:
+    """The display unit's 7-segment / character-LCD driver: :meth:`show` writes one whole
+    screen (a line of text) to the port, as the firmware's refresh would drive the segments.
+
+    Parameters
+    ----------
+    on_show : callable(text) or None
+        Port receiving every screen written (the host logs it: ``display.log``).
+    """
+
+    def __init__(self, on_show: Optional[Callable[[str], None]] = None) -> None:
+        self.on_show = on_show
+        self.text = ""
+        self.writes = 0
+
+    def show(self, text: str) -> None:
+        self.text = text
+        self.writes += 1
+        if self.on_show is not None:
+            self.on_show(text)
+
+    def reset(self) -> None:
+        """Power-on: blank."""
+        self.text = ""

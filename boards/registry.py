@@ -21,13 +21,17 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from boards.axis_controller import AxisController
+from boards.display import DisplayUnit
+from boards.dome import DomeController
 from boards.firmware_base import Board
 from boards.focus_controller import FocusController
 from boards.position_reader import PositionReader
+from boards.weather import WeatherStation
 from bus import protocol as P
 from bus.eds.objects import KINDS as EDS_KINDS
 
 __all__ = ["BoardInstance", "BoardSpec", "REGISTRY", "BOARDS", "BOARD_NAMES", "NODE_NAMES",
+           "DEFAULT_BOARD_NAMES",
            "board", "board_of_node", "nodes_of_kind"]
 
 
@@ -70,6 +74,11 @@ class BoardSpec:
         The boards of this kind, in node order.
     description : str
         The board (paper section).
+    default : bool
+        Built when nothing names the boards to build (today's five boards). False for the room
+        nodes of issue 12 (display, dome, weather), which a caller builds by name
+        (``build_network(..., boards=...)``). A stop-gap: the networks-by-name code
+        (``network: basic|lab|full``) replaces this flag.
     """
 
     kind: str
@@ -78,6 +87,7 @@ class BoardSpec:
     ports: tuple[str, ...]
     instances: tuple[BoardInstance, ...]
     description: str = ""
+    default: bool = True
 
     def sends(self, node_id: int) -> list[tuple[int, str]]:
         """``(cob_id, frame name)`` of every frame the board with ``node_id`` sends: its
@@ -121,6 +131,25 @@ REGISTRY: tuple[BoardSpec, ...] = (
         ports=("on_step", "read_lvdt_v", "read_index", "on_power", "read_encoder_counts"),
         instances=(BoardInstance("focus", P.NodeId.FOCUS, None),),
         description="focus controller, PIC18F4431: stepper, LVDT, motor encoder (§3.3)"),
+    # -- issue 12, room nodes ---------------------------------------------------------------
+    BoardSpec(
+        kind="display", firmware=DisplayUnit, device_type=P.DeviceType.DISPLAY,
+        ports=("on_show",),
+        instances=(BoardInstance("display", P.NodeId.DISPLAY, None),),
+        description="digital display unit: HA/DEC and rates from POSITION and AXIS_STATUS (§3.4)",
+        default=False),
+    BoardSpec(
+        kind="dome", firmware=DomeController, device_type=P.DeviceType.DOME,
+        ports=("read_azimuth_counts", "set_speed_reference"),
+        instances=(BoardInstance("dome", P.NodeId.DOME, None),),
+        description="dome controller: slit azimuth follows the telescope (§5.2)", default=False),
+    BoardSpec(
+        kind="weather", firmware=WeatherStation, device_type=P.DeviceType.WEATHER,
+        ports=("read_temperature_v", "read_humidity_v", "read_wind_v", "read_rain"),
+        instances=(BoardInstance("weather", P.NodeId.WEATHER, None),),
+        description="weather station: temperature, humidity, wind, rain; high-wind and rain flags (§5.2)",
+        default=False),
+    # -- end room nodes
 )
 
 #: Every board by scenario name, in node order: name -> (spec, instance).
@@ -128,6 +157,8 @@ BOARDS: dict[str, tuple[BoardSpec, BoardInstance]] = dict(sorted(
     ((i.name, (s, i)) for s in REGISTRY for i in s.instances), key=lambda kv: int(kv[1][1].node_id)))
 #: Scenario board names in node order.
 BOARD_NAMES: tuple[str, ...] = tuple(BOARDS)
+#: Boards built when nothing names them (``BoardSpec.default``), in node order.
+DEFAULT_BOARD_NAMES: tuple[str, ...] = tuple(n for n, (s, _) in BOARDS.items() if s.default)
 #: Board name of each node id.
 NODE_NAMES: dict[int, str] = {int(i.node_id): name for name, (_, i) in BOARDS.items()}
 

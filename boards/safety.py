@@ -33,13 +33,15 @@ from typing import Optional
 
 __all__ = ["SafetyLimits", "DEFAULT_SAFETY", "RECOMMENDED_HOST_WATCHDOG_US",
            "REFUSE_GAIN", "REFUSE_RATE", "REFUSE_DUTY", "REFUSE_LIMIT", "REFUSE_READER",
-           "REFUSE_TRAVEL"]
+           "REFUSE_TRAVEL", "REFUSE_AZIMUTH"]
 
 #: Reason codes of FAULT ``COMMAND_REFUSED`` (detail = reason << 8 | command code).
 REFUSE_GAIN, REFUSE_RATE, REFUSE_DUTY, REFUSE_READER, REFUSE_TRAVEL = 1, 2, 3, 5, 6
 #: Reason 4: motion toward an active soft limit (issue 10: was FAULT LIMIT_STOP with detail =
 #: command, the second meaning of code 4).
 REFUSE_LIMIT = 4
+#: Reason 7 (issue 12, dome): a GOTO azimuth outside 0 .. 359.99° (centi-degrees 0 .. 35999).
+REFUSE_AZIMUTH = 7
 
 #: Host watchdog: the host sends its CiA heartbeat (0x710) every second, so 2 s = two missed host
 #: heartbeats (assumed; CiA-301 practice is a consumer time of 1.5-3 heartbeat periods). The

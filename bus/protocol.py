@@ -62,6 +62,11 @@ class NodeId(IntEnum):
     RA_READER = 3      #: RA EnDat position reader, PIC18F4480
     DEC_READER = 4     #: DEC EnDat position reader
     FOCUS = 5          #: focus controller, PIC18F4431
+    # -- issue 12, room nodes (display, dome, weather) ------------------------------------------
+    DISPLAY = 0x0C     #: digital display unit (§3.4)
+    DOME = 0x0D        #: dome controller (§5.2, tested in the lab on RS232)
+    WEATHER = 0x0E     #: weather station (§5.2, tested in the lab on RS232)
+    # -- end room nodes -------------------------------------------------------------------------
     HOST = 0x10        #: USB-to-CAN host node, PIC18F4550
 
 
@@ -74,7 +79,9 @@ NODE_HOST = NodeId.HOST
 
 AXIS_NODES = (NodeId.RA_AXIS, NodeId.DEC_AXIS)
 READER_NODES = (NodeId.RA_READER, NodeId.DEC_READER)
-BOARD_NODES = (NodeId.RA_AXIS, NodeId.DEC_AXIS, NodeId.RA_READER, NodeId.DEC_READER, NodeId.FOCUS)
+#: The room nodes of issue 12 (display unit, dome controller, weather station).
+ROOM_NODES = (NodeId.DISPLAY, NodeId.DOME, NodeId.WEATHER)
+BOARD_NODES = (NodeId.RA_AXIS, NodeId.DEC_AXIS, NodeId.RA_READER, NodeId.DEC_READER, NodeId.FOCUS) + ROOM_NODES
 ALL_NODES = BOARD_NODES + (NodeId.HOST,)
 
 
@@ -84,6 +91,9 @@ class DeviceType(IntEnum):
     AXIS_CONTROLLER = 0x01
     POSITION_READER = 0x02
     FOCUS_CONTROLLER = 0x03
+    DISPLAY = 0x06           #: issue 12: digital display unit
+    DOME = 0x07              #: issue 12: dome controller
+    WEATHER = 0x08           #: issue 12: weather station
     HOST = 0x10
 
 
@@ -94,13 +104,18 @@ DEVICE_TYPE_OF_NODE: dict[int, DeviceType] = {
     NodeId.RA_READER: DeviceType.POSITION_READER,
     NodeId.DEC_READER: DeviceType.POSITION_READER,
     NodeId.FOCUS: DeviceType.FOCUS_CONTROLLER,
+    NodeId.DISPLAY: DeviceType.DISPLAY,
+    NodeId.DOME: DeviceType.DOME,
+    NodeId.WEATHER: DeviceType.WEATHER,
     NodeId.HOST: DeviceType.HOST,
 }
 
 #: Short node names used in frame names (``AXIS_STATUS_RA``, ``FAULT_RA_READER``) and the DBC.
 NODE_NAME: dict[int, str] = {
     NodeId.RA_AXIS: "RA_AXIS", NodeId.DEC_AXIS: "DEC_AXIS", NodeId.RA_READER: "RA_READER",
-    NodeId.DEC_READER: "DEC_READER", NodeId.FOCUS: "FOCUS", NodeId.HOST: "HOST",
+    NodeId.DEC_READER: "DEC_READER", NodeId.FOCUS: "FOCUS",
+    NodeId.DISPLAY: "DISPLAY", NodeId.DOME: "DOME", NodeId.WEATHER: "WEATHER",
+    NodeId.HOST: "HOST",
 }
 
 FC_NMT = 0x000          #: CANopen NMT (CiA 301), host → all
@@ -121,6 +136,10 @@ POSITION_PERIOD_US = 10_000
 FOCUS_STATUS_PERIOD_US = 250_000
 HEARTBEAT_PERIOD_US = 1_000_000
 LIMIT_REPEAT_US = 100_000
+# issue 12, room nodes (assumed periods: docs/protocol.md)
+DISPLAY_STATUS_PERIOD_US = 1_000_000
+DOME_STATUS_PERIOD_US = 250_000
+WEATHER_STATUS_PERIOD_US = 1_000_000
 
 
 # ------------------------------------------------------------------------------------------------
@@ -267,6 +286,53 @@ class FocusFlags(IntFlag):
     STEP_LOSS = 16   #: missed half-steps detected since the last FOCUS_STATUS (latched)
 
 
+# -- issue 12, room nodes: enums and flags ------------------------------------------------------
+
+
+class DisplayFlags(IntFlag):
+    """``DISPLAY_STATUS`` byte 1: which inputs the display showed as stale (dashes) at its last
+    refresh."""
+
+    RA_POSITION_STALE = 1
+    DEC_POSITION_STALE = 2
+    RA_AXIS_STALE = 4
+    DEC_AXIS_STALE = 8
+
+
+class DomeCommand(IntEnum):
+    """``DOME_COMMAND`` byte 1."""
+
+    STOP = 0
+    FOLLOW = 1     #: slit azimuth follows the telescope (POSITION frames)
+    GOTO = 2       #: value = azimuth, centi-degrees 0..35999
+    PARK = 3       #: go to the park azimuth (0x2400:4) and stay
+
+
+class DomeMode(IntEnum):
+    """``DOME_STATUS`` byte 1."""
+
+    IDLE = 0
+    FOLLOW = 1
+    GOTO = 2
+    PARK = 3
+
+
+class DomeFlags(IntFlag):
+    """``DOME_STATUS`` byte 2."""
+
+    MOVING = 1
+    ON_TARGET = 2          #: |target - azimuth| within the deadband
+    PARKED = 4             #: PARK reached the park azimuth
+    POSITION_STALE = 8     #: FOLLOW without fresh POSITION frames of both axes: holding
+
+
+class WeatherFlags(IntFlag):
+    """``WEATHER_STATUS`` byte 1 (thresholds: the station's 0x2500 objects)."""
+
+    HIGH_WIND = 1
+    RAIN = 2
+
+
 #: Absolute encoder resolution: positions are 29-bit, 2**29 counts per revolution.
 POS_COUNTS_PER_REV = 1 << 29
 ADC_MAX = 1023
@@ -342,6 +408,29 @@ def axis_command_cob_id(node: int) -> int:
 def focus_command_cob_id(node: int = NodeId.FOCUS) -> int:
     """COB-ID of ``FOCUS_COMMAND`` (0x205)."""
     return FC_COMMAND + _check_node("FOCUS_COMMAND", node, (NodeId.FOCUS,))
+
+
+# -- issue 12, room nodes: COB-IDs ---------------------------------------------------------------
+
+
+def display_status_cob_id(node: int = NodeId.DISPLAY) -> int:
+    """COB-ID of ``DISPLAY_STATUS`` (0x18C, the display's TPDO1)."""
+    return FC_STATUS + _check_node("DISPLAY_STATUS", node, (NodeId.DISPLAY,))
+
+
+def dome_status_cob_id(node: int = NodeId.DOME) -> int:
+    """COB-ID of ``DOME_STATUS`` (0x18D, the dome's TPDO1)."""
+    return FC_STATUS + _check_node("DOME_STATUS", node, (NodeId.DOME,))
+
+
+def dome_command_cob_id(node: int = NodeId.DOME) -> int:
+    """COB-ID of ``DOME_COMMAND`` (0x20D, the dome's RPDO1)."""
+    return FC_COMMAND + _check_node("DOME_COMMAND", node, (NodeId.DOME,))
+
+
+def weather_status_cob_id(node: int = NodeId.WEATHER) -> int:
+    """COB-ID of ``WEATHER_STATUS`` (0x18E, the weather station's TPDO1)."""
+    return FC_STATUS + _check_node("WEATHER_STATUS", node, (NodeId.WEATHER,))
 
 
 def heartbeat_cob_id(node: int) -> int:
@@ -427,6 +516,32 @@ class Heartbeat(NamedTuple):
     state: NodeState        #: NMT state (0 = boot-up message)
 
 
+# -- issue 12, room nodes: decoded frames
+class DisplayStatus(NamedTuple):
+    flags: int              #: DisplayFlags bits at the last refresh
+    frames_received: int    #: POSITION/AXIS_STATUS frames consumed since reset, u16 (wraps)
+    refreshes: int          #: display refreshes since reset, u16 (wraps)
+
+
+class DomeStatus(NamedTuple):
+    mode: DomeMode
+    flags: int              #: DomeFlags bits
+    azimuth_cdeg: int       #: slit azimuth, centi-degrees 0..35999 (N = 0, E = 9000)
+    target_cdeg: int        #: target azimuth, centi-degrees 0..35999
+
+
+class DomeCommandFrame(NamedTuple):
+    cmd: DomeCommand
+    value: int              #: GOTO: azimuth, centi-degrees
+
+
+class WeatherStatus(NamedTuple):
+    flags: int              #: WeatherFlags bits
+    temperature_cdegc: int  #: air temperature, 0.01 degC (i16)
+    humidity_cpct: int      #: relative humidity, 0.01 % (0..10000)
+    wind_cm_s: int          #: wind speed, cm/s (u16)
+
+
 # ------------------------------------------------------------------------------------------------
 # Codecs (one struct per frame; hand-written for speed, checked against the DBC by tests)
 # ------------------------------------------------------------------------------------------------
@@ -454,6 +569,8 @@ _MODE = _table(AxisMode)
 _ACMD = _table(AxisCommand)
 _FCMD = _table(FocusCommand)
 _STATE = _table(NodeState)
+_DOME_MODE = _table(DomeMode)
+_DCMD = _table(DomeCommand)
 
 
 def _enum_or_raise(table: tuple, value: int, frame: str, field: str, exc: type) -> object:
@@ -813,6 +930,100 @@ def decode_heartbeat(data) -> Heartbeat:
     return Heartbeat(_enum_or_raise(_STATE, data[0], "HEARTBEAT", "state", MalformedFrame))
 
 
+# -- issue 12, room nodes: codecs ------------------------------------------------------------------
+_S_DISPLAY_STATUS = struct.Struct("<BBHH2x")
+_DT_DISPLAY = DeviceType.DISPLAY
+_DT_DOME = DeviceType.DOME
+_DT_WEATHER = DeviceType.WEATHER
+AZIMUTH_CDEG_MAX = 35_999
+HUMIDITY_CPCT_MAX = 10_000
+
+
+def encode_display_status(flags: int, frames_received: int, refreshes: int) -> bytes:
+    """Encode ``DISPLAY_STATUS`` (0x18C): DisplayFlags, frames received u16 and refreshes u16
+    (both wrap)."""
+    f = "DISPLAY_STATUS"
+    try:
+        _flags(f, "flags", flags, 0x0F)
+        return _S_DISPLAY_STATUS.pack(_DT_DISPLAY, flags, frames_received & 0xFFFF, refreshes & 0xFFFF)
+    except (struct.error, TypeError) as exc:
+        raise _not_int(f, exc) from None
+
+
+def decode_display_status(data) -> DisplayStatus:
+    """Decode ``DISPLAY_STATUS``; raises MalformedFrame."""
+    dt, flags, n, r = _unpack(_S_DISPLAY_STATUS, data, "DISPLAY_STATUS", _DT_DISPLAY)
+    return DisplayStatus(flags, n, r)
+
+
+_S_DOME_STATUS = struct.Struct("<BBBHHx")
+
+
+def encode_dome_status(mode: int, flags: int, azimuth_cdeg: int, target_cdeg: int) -> bytes:
+    """Encode ``DOME_STATUS`` (0x18D): DomeMode, DomeFlags, azimuth and target in centi-degrees
+    (each reduced modulo 36000: an angle wraps)."""
+    f = "DOME_STATUS"
+    _enum_or_raise(_DOME_MODE, mode, f, "mode", EncodeError)
+    try:
+        _flags(f, "flags", flags, 0x0F)
+        return _S_DOME_STATUS.pack(_DT_DOME, mode, flags, azimuth_cdeg % 36_000, target_cdeg % 36_000)
+    except (struct.error, TypeError) as exc:
+        raise _not_int(f, exc) from None
+
+
+def decode_dome_status(data) -> DomeStatus:
+    """Decode ``DOME_STATUS``; raises MalformedFrame."""
+    dt, mode, flags, az, tgt = _unpack(_S_DOME_STATUS, data, "DOME_STATUS", _DT_DOME)
+    if az > AZIMUTH_CDEG_MAX:
+        raise MalformedFrame("DOME_STATUS", "azimuth_cdeg", "0..35999", az)
+    if tgt > AZIMUTH_CDEG_MAX:
+        raise MalformedFrame("DOME_STATUS", "target_cdeg", "0..35999", tgt)
+    return DomeStatus(_enum_or_raise(_DOME_MODE, mode, "DOME_STATUS", "mode", MalformedFrame), flags, az, tgt)
+
+
+_S_DOME_COMMAND = struct.Struct("<BB2xi")
+
+
+def encode_dome_command(cmd: int, value: int = 0) -> bytes:
+    """Encode ``DOME_COMMAND`` (0x20D): DomeCommand, value i32 (GOTO: azimuth centi-degrees;
+    saturates; the dome refuses values outside 0..35999)."""
+    f = "DOME_COMMAND"
+    _enum_or_raise(_DCMD, cmd, f, "cmd", EncodeError)
+    try:
+        return _S_DOME_COMMAND.pack(_DT_HOST, cmd, _clamp(value, I32_MIN, I32_MAX))
+    except (struct.error, TypeError) as exc:
+        raise _not_int(f, exc) from None
+
+
+def decode_dome_command(data) -> DomeCommandFrame:
+    """Decode ``DOME_COMMAND``; raises MalformedFrame."""
+    dt, cmd, value = _unpack(_S_DOME_COMMAND, data, "DOME_COMMAND", _DT_HOST)
+    return DomeCommandFrame(_enum_or_raise(_DCMD, cmd, "DOME_COMMAND", "cmd", MalformedFrame), value)
+
+
+_S_WEATHER_STATUS = struct.Struct("<BBhHH")
+
+
+def encode_weather_status(flags: int, temperature_cdegc: int, humidity_cpct: int, wind_cm_s: int) -> bytes:
+    """Encode ``WEATHER_STATUS`` (0x18E): WeatherFlags, temperature i16 0.01 degC, humidity
+    0..10000 (0.01 %), wind u16 cm/s (all saturate)."""
+    f = "WEATHER_STATUS"
+    try:
+        _flags(f, "flags", flags, 0x03)
+        return _S_WEATHER_STATUS.pack(_DT_WEATHER, flags, _clamp(temperature_cdegc, -32768, 32767),
+                                      _clamp(humidity_cpct, 0, HUMIDITY_CPCT_MAX), _clamp(wind_cm_s, 0, 0xFFFF))
+    except (struct.error, TypeError) as exc:
+        raise _not_int(f, exc) from None
+
+
+def decode_weather_status(data) -> WeatherStatus:
+    """Decode ``WEATHER_STATUS``; raises MalformedFrame."""
+    dt, flags, t, h, w = _unpack(_S_WEATHER_STATUS, data, "WEATHER_STATUS", _DT_WEATHER)
+    if h > HUMIDITY_CPCT_MAX:
+        raise MalformedFrame("WEATHER_STATUS", "humidity_cpct", "0..10000", h)
+    return WeatherStatus(flags, t, h, w)
+
+
 # ------------------------------------------------------------------------------------------------
 # Frame table: the single description of fields, used for the DBC, tests and docs
 # ------------------------------------------------------------------------------------------------
@@ -983,6 +1194,43 @@ _add(FrameSpec("HEARTBEAT", FC_HEARTBEAT, ALL_NODES, "node", HEARTBEAT_PERIOD_US
     "CiA 301 heartbeat of every node at its 0x1017 period (1 s); boot-up message = state 0",
     dlc=1, device_type_byte=False))
 
+# -- issue 12, room nodes: frame table ------------------------------------------------------------
+_add(FrameSpec("DISPLAY_STATUS", FC_STATUS, (NodeId.DISPLAY,), "node", DISPLAY_STATUS_PERIOD_US, (
+    Field("flags", 1, 8, False, 0, 15, "flags", flag_names=("ra_position_stale", "dec_position_stale",
+                                                             "ra_axis_stale", "dec_axis_stale")),
+    Field("frames_received", 2, 16, False, 0, 0xFFFF, "wrap", unit="frames", dbc_unit="frames",
+          doc="POSITION and AXIS_STATUS frames consumed since reset"),
+    Field("refreshes", 4, 16, False, 0, 0xFFFF, "wrap", unit="refreshes", dbc_unit="refreshes",
+          doc="display refreshes since reset (4 per second)"),
+), DisplayStatus, encode_display_status, decode_display_status, "display unit to host, every 1 s"))
+
+_add(FrameSpec("DOME_STATUS", FC_STATUS, (NodeId.DOME,), "node", DOME_STATUS_PERIOD_US, (
+    Field("mode", 1, 8, False, 0, 3, "enum", enum=DomeMode),
+    Field("flags", 2, 8, False, 0, 15, "flags", flag_names=("moving", "on_target", "parked",
+                                                             "position_stale")),
+    Field("azimuth_cdeg", 3, 16, False, 0, AZIMUTH_CDEG_MAX, "wrap", unit="0.01 deg",
+          dbc_name="azimuth", factor=0.01, dbc_unit="deg", doc="slit azimuth, N = 0, E = 90 deg"),
+    Field("target_cdeg", 5, 16, False, 0, AZIMUTH_CDEG_MAX, "wrap", unit="0.01 deg",
+          dbc_name="target_azimuth", factor=0.01, dbc_unit="deg", doc="azimuth the dome drives to"),
+), DomeStatus, encode_dome_status, decode_dome_status, "dome controller to host, every 250 ms"))
+
+_add(FrameSpec("DOME_COMMAND", FC_COMMAND, (NodeId.DOME,), "host", None, (
+    Field("cmd", 1, 8, False, 0, 3, "enum", enum=DomeCommand),
+    Field("value", 4, 32, True, I32_MIN, I32_MAX, "clamp", unit="0.01 deg", dbc_unit="cdeg",
+          doc="GOTO: azimuth 0..35999 (others refused); other commands: 0"),
+), DomeCommandFrame, encode_dome_command, decode_dome_command, "host to dome controller"))
+
+_add(FrameSpec("WEATHER_STATUS", FC_STATUS, (NodeId.WEATHER,), "node", WEATHER_STATUS_PERIOD_US, (
+    Field("flags", 1, 8, False, 0, 3, "flags", flag_names=("high_wind", "rain")),
+    Field("temperature_cdegc", 2, 16, True, -32768, 32767, "clamp", unit="0.01 degC",
+          dbc_name="temperature", factor=0.01, dbc_unit="degC", doc="air temperature"),
+    Field("humidity_cpct", 4, 16, False, 0, HUMIDITY_CPCT_MAX, "clamp", unit="0.01 %",
+          dbc_name="humidity", factor=0.01, dbc_unit="%", doc="relative humidity"),
+    Field("wind_cm_s", 6, 16, False, 0, 0xFFFF, "clamp", unit="cm/s", dbc_name="wind_speed",
+          factor=0.01, dbc_unit="m/s", doc="wind speed (1 s sample)"),
+), WeatherStatus, encode_weather_status, decode_weather_status, "weather station to host, every 1 s"))
+# -- end room nodes ----------------------------------------------------------------------------
+
 #: Per-command DBC signal for ``AXIS_COMMAND.value`` (the DBC multiplexes it by ``cmd``):
 #: command -> (signal name, factor, unit).
 AXIS_COMMAND_VALUE_SIGNALS: dict[AxisCommand, tuple[str, float, str]] = {
@@ -1113,7 +1361,8 @@ def load_dbc():
 # DBC generation (``python -m bus.protocol > bus/schmidt.dbc``)
 # ------------------------------------------------------------------------------------------------
 
-_DBC_NODES = ("HOST", "RA_AXIS", "DEC_AXIS", "RA_READER", "DEC_READER", "FOCUS")
+_DBC_NODES = ("HOST", "RA_AXIS", "DEC_AXIS", "RA_READER", "DEC_READER", "FOCUS",
+              "DISPLAY", "DOME", "WEATHER")
 
 
 def _fmt(x: float) -> str:
@@ -1125,13 +1374,17 @@ def _receivers(spec: FrameSpec, node) -> str:
         return ",".join(NODE_NAME[n] for n in BOARD_NODES)
     if spec.name == "STOP_ALL":
         return ",".join(NODE_NAME[n] for n in BOARD_NODES if DEVICE_TYPE_OF_NODE[n] in
-                        (DeviceType.AXIS_CONTROLLER, DeviceType.FOCUS_CONTROLLER))
+                        (DeviceType.AXIS_CONTROLLER, DeviceType.FOCUS_CONTROLLER, DeviceType.DOME))
     if spec.sender == "host":
         return NODE_NAME[node]
     if spec.name == "LIMIT":
         return NODE_NAME[NodeId.RA_AXIS if node == NodeId.RA_READER else NodeId.DEC_AXIS]
     if spec.name == "HEARTBEAT" and node == NodeId.HOST:
         return ",".join(NODE_NAME[n] for n in BOARD_NODES)     # the host watchdog (0x1016)
+    if spec.name == "POSITION":       # issue 12: the display and the dome consume it too
+        return "HOST,DISPLAY,DOME"
+    if spec.name == "AXIS_STATUS":    # issue 12: the display shows the axis mode
+        return "HOST,DISPLAY"
     return "HOST"
 
 

@@ -4,6 +4,14 @@ It talks to the boards only through the documented frames (``bus.protocol``, doc
 over any python-can ``BusABC``: power-on with a health check, motion commands, and the status it
 decodes from what the boards publish. It never touches a board or the plant directly.
 
+Weather (issue 12, docs/faults.md "Weather"): when the weather station's WEATHER_STATUS shows
+HIGH_WIND or RAIN, the host stops the axes (STOP_ALL), parks the dome (DOME_COMMAND PARK, when
+the network has a dome), and from then on refuses every motion command (axis modes other than
+stop; dome follow/goto) with a line in ``commands.log`` (``REFUSED``) and ``errors.log``
+(``command-refused``); it logs ``weather-unsafe`` when the condition appears and
+``weather-clear`` when the station clears its flags. Nothing restarts by itself: the next
+command after the clear is obeyed.
+
 CANopen (docs/canopen.md): the host is node 0x10, the NMT master and the SDO client. Its
 power-on health check is an SDO upload of object 0x1000 from every expected node (the answer on
 0x580 + node replaces the old PING's heartbeat); then it starts the nodes with NMT start and
@@ -21,7 +29,7 @@ import can
 from bus import protocol as P
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_HOST, Scheduler
-from boards.registry import NODE_NAMES, REGISTRY, nodes_of_kind
+from boards.registry import BOARDS, DEFAULT_BOARD_NAMES, NODE_NAMES, REGISTRY, nodes_of_kind
 from bus.units import TICK_US, duty_to_q15, q15_to_duty
 
 __all__ = ["HostClient", "Health", "AxisState", "NODE_NAMES", "AXIS_NODES"]
@@ -84,6 +92,45 @@ class FocusState:
     t_us: int = -1
 
 
+# -- issue 12, room nodes: what the host decodes from the display, dome and weather station
+@dataclass
+class WeatherState:
+    flags: int = 0
+    temperature_c: float = 0.0
+    humidity_pct: float = 0.0
+    wind_m_s: float = 0.0
+    t_us: int = -1
+
+
+@dataclass
+class DomeState:
+    mode: int = 0
+    flags: int = 0
+    azimuth_deg: float = 0.0
+    target_deg: float = 0.0
+    t_us: int = -1
+
+
+@dataclass
+class DisplayState:
+    flags: int = 0
+    frames_received: int = 0
+    refreshes: int = 0
+    t_us: int = -1
+
+
+#: WEATHER_STATUS flags that make the host stop and refuse motion.
+WEATHER_UNSAFE = int(P.WeatherFlags.HIGH_WIND | P.WeatherFlags.RAIN)
+def weather_flag_names(flags: int) -> str:
+    """``"high_wind,rain"``, ``"high_wind"``... or ``"none"`` for WEATHER_STATUS flags."""
+    names = [f.name.lower() for f in P.WeatherFlags if flags & f]
+    return ",".join(names) if names else "none"
+
+
+_DOME_CMD = {"stop": P.DomeCommand.STOP, "follow": P.DomeCommand.FOLLOW, "goto": P.DomeCommand.GOTO,
+             "park": P.DomeCommand.PARK}
+
+
 @dataclass
 class Health:
     """Result of the power-on health check."""
@@ -109,7 +156,8 @@ class HostClient:
     scheduler : Scheduler
         The simulated clock.
     expected_nodes : tuple of int
-        Nodes that must answer the power-on health check.
+        Nodes that must answer the power-on health check (default: the registry's default
+        boards; ``build_network`` passes the boards it built).
     preset_rates_arcsec_s : dict
         Firmware preset rates keyed by ``(mode name, axis)``, to report setpoints.
     open_loop_duty : callable(rate_arcsec_s, axis) -> float
@@ -127,7 +175,7 @@ class HostClient:
 
     bus: can.BusABC
     scheduler: Scheduler
-    expected_nodes: tuple = tuple(NODE_NAMES)
+    expected_nodes: tuple = tuple(int(BOARDS[n][1].node_id) for n in DEFAULT_BOARD_NAMES)
     preset_rates_arcsec_s: dict = field(default_factory=dict)
     open_loop_duty: Callable[[float, str], float] | None = None
     adc_to_current_a: Callable[[int], float] = lambda c: c * (5.0 / 1023) / 0.1
@@ -150,6 +198,12 @@ class HostClient:
         self.setpoints = {"ra": 0.0, "dec": 0.0}   # the rate each axis was last commanded [arcsec/s]
         self.positions = {"ra": PositionState(), "dec": PositionState()}
         self.focus = FocusState()
+        self.weather = WeatherState()          # issue 12, room nodes
+        self.dome = DomeState()
+        self.display = DisplayState()
+        self.weather_unsafe = False            # HIGH_WIND or RAIN seen and not yet cleared
+        self.weather_stops = 0                 # times the weather stopped the telescope
+        self.refused_commands = 0              # commands the host refused (weather)
         self.heartbeats: dict[int, tuple[int, int]] = {}   # node -> (t_us, NMT state)
         self.sdo_answers: dict[int, int] = {}   # node -> time of its last SDO response [µs]
         self.emcy_active: dict[int, dict[int, int]] = {}   # node -> {error code: detail}
@@ -173,6 +227,8 @@ class HostClient:
             P.AxisStatus: self._on_AxisStatus, P.AxisAux: self._on_AxisAux, P.Position: self._on_Position,
             P.FocusStatus: self._on_FocusStatus, P.Heartbeat: self._on_Heartbeat, P.Emcy: self._on_Emcy,
             P.Limit: self._on_Limit,
+            P.WeatherStatus: self._on_WeatherStatus, P.DomeStatus: self._on_DomeStatus,
+            P.DisplayStatus: self._on_DisplayStatus,
         }
         if hasattr(self.bus, "set_rx_callback"):
             self.bus.set_rx_callback(self.poll)
@@ -303,6 +359,81 @@ class HostClient:
         if self.logs:
             self.logs.status(now, node, _node_name(node), "limit", f"flags=0x{f.flags:02X} pos={f.pos_counts}")
 
+    # -- issue 12, room nodes ---------------------------------------------------------------------
+    def _on_WeatherStatus(self, cob_id: int, f, now: int) -> None:
+        w = self.weather
+        changed = f.flags != w.flags or w.t_us < 0
+        w.flags, w.temperature_c, w.humidity_pct, w.wind_m_s, w.t_us = (
+            f.flags, f.temperature_cdegc / 100.0, f.humidity_cpct / 100.0, f.wind_cm_s / 100.0, now)
+        desc = (f"flags={weather_flag_names(f.flags)} wind={w.wind_m_s:.2f}m/s humidity={w.humidity_pct:.2f}% "
+                f"temperature={w.temperature_c:.2f}C")
+        if changed and self.logs:
+            self.logs.status(now, P.NodeId.WEATHER, NODE_NAMES.get(P.NodeId.WEATHER, "weather"), "weather", desc)
+        unsafe = bool(f.flags & WEATHER_UNSAFE)
+        if unsafe and not self.weather_unsafe:
+            self.weather_unsafe = True
+            self.weather_stops += 1
+            self._error(now, "host", "weather-unsafe", desc + "; stopping the axes, parking the dome")
+            self.stop_all()
+            for axis in self.setpoints:
+                self.setpoints[axis] = 0.0
+            if int(P.NodeId.DOME) in self.expected_nodes:
+                self._send(P.dome_command_cob_id(), P.encode_dome_command(P.DomeCommand.PARK), "dome", "PARK",
+                           "weather")
+        elif not unsafe and self.weather_unsafe:
+            self.weather_unsafe = False
+            self._error(now, "host", "weather-clear", desc + "; motion commands accepted again")
+
+    def _on_DomeStatus(self, cob_id: int, f, now: int) -> None:
+        d = self.dome
+        if (f.mode, f.flags & int(P.DomeFlags.PARKED)) != (d.mode, d.flags & int(P.DomeFlags.PARKED)) and self.logs:
+            self.logs.status(now, P.NodeId.DOME, "dome", "dome",
+                             f"mode={P.DomeMode(f.mode).name} parked={bool(f.flags & P.DomeFlags.PARKED)} "
+                             f"azimuth={f.azimuth_cdeg / 100:.2f}")
+        d.mode, d.flags, d.azimuth_deg, d.target_deg, d.t_us = (
+            int(f.mode), f.flags, f.azimuth_cdeg / 100.0, f.target_cdeg / 100.0, now)
+
+    def _on_DisplayStatus(self, cob_id: int, f, now: int) -> None:
+        d = self.display
+        d.flags, d.frames_received, d.refreshes, d.t_us = f.flags, f.frames_received, f.refreshes, now
+
+    def _refuse(self, target: str, what: str) -> None:
+        """Refuse a motion command while the weather is unsafe (commands.log and errors.log)."""
+        now = self.scheduler.now_us
+        self.refused_commands += 1
+        why = f"weather unsafe ({weather_flag_names(self.weather.flags)})"
+        if self.logs:
+            self.logs.command(now, target, "REFUSED", f"{what}: {why}")
+        self._error(now, "host", "command-refused", f"{target} {what}: {why}")
+
+    def command_dome(self, what: str, azimuth_deg: float | None = None) -> bool:
+        """Send a ``DOME_COMMAND``: ``"follow"``, ``"goto"`` (``azimuth_deg``), ``"park"`` or
+        ``"stop"``. While the weather is unsafe, ``follow`` and ``goto`` are refused (logged).
+
+        Returns
+        -------
+        bool
+            True if sent.
+
+        Raises
+        ------
+        ValueError
+            Unknown command, or ``goto`` without an azimuth.
+        """
+        if what not in _DOME_CMD:
+            raise ValueError(f"unknown dome command {what!r}; expected one of {sorted(_DOME_CMD)}")
+        if what in ("follow", "goto") and self.weather_unsafe:
+            self._refuse("dome", what.upper())
+            return False
+        value = 0
+        if what == "goto":
+            if azimuth_deg is None:
+                raise ValueError("dome goto needs azimuth_deg")
+            value = int(round(azimuth_deg * 100))
+        self._send(P.dome_command_cob_id(), P.encode_dome_command(_DOME_CMD[what], value), "dome",
+                   what.upper(), f"value={value}")
+        return True
+
     def _error(self, now: int, source: str, error: str, detail: str) -> None:
         self._errors.append(f"{now / 1e6:.6f} s {source}: {error} {detail}")
         if self.logs:
@@ -409,6 +540,9 @@ class HostClient:
     def command_axis(self, axis: str, mode: str, direction: int = 1, rate_arcsec_s: float | None = None) -> float:
         """Send an ``AXIS_COMMAND``; return the signed setpoint rate [arcsec/s] it means.
 
+        While the weather is unsafe (:attr:`weather_unsafe`) every mode but ``stop`` is refused:
+        nothing is sent, the refusal is logged and 0.0 returned.
+
         Parameters
         ----------
         axis : {"ra", "dec"}
@@ -427,6 +561,10 @@ class HostClient:
             raise ValueError(f"unknown axis {axis!r}; expected 'ra' or 'dec'")
         if mode not in _MODE_CMD:
             raise ValueError(f"unknown mode {mode!r}; expected one of {sorted(_MODE_CMD)}")
+        if self.weather_unsafe and mode != "stop":
+            self._refuse(NODE_NAMES[AXIS_NODES[axis]], mode.upper())
+            self.setpoints[axis] = 0.0
+            return 0.0
         node = AXIS_NODES[axis]
         cmd = _MODE_CMD[mode]
         value = 0

@@ -24,7 +24,7 @@ from pathlib import Path
 from bus.errors import SchmidtFilError
 
 __all__ = ["HostLogs", "CandumpWriter", "SENSOR_COLUMNS", "LOG_FILES", "CANDUMP_LOG", "LineFile",
-           "LogWriteError", "sanitize"]
+           "LogWriteError", "sanitize", "DisplayLog", "DISPLAY_LOG"]
 
 
 class LogWriteError(SchmidtFilError, OSError):
@@ -261,3 +261,48 @@ def _fmt(v) -> str:
     if isinstance(v, float):
         return f"{v:.6g}"
     return str(v)
+
+
+# -- issue 12, room nodes: the display unit's log ---------------------------------------------------
+#: File name of the display unit's log in the run directory.
+DISPLAY_LOG = "display.log"
+
+
+class DisplayLog:
+    """What the digital display unit showed: one line per refresh, ``t_s  screen``.
+
+    The display firmware's driver port (:class:`boards.peripherals.CharacterDisplay`) calls
+    :meth:`show`; the last screen and the count are kept in memory, and, once :meth:`open` gave
+    a file, every screen is written to ``display.log`` (whole lines, buffered).
+
+    Parameters
+    ----------
+    clock : callable() -> int
+        Simulated time, µs (the scheduler's ``now_us``).
+    """
+
+    def __init__(self, clock) -> None:
+        self.clock = clock
+        self.last = ""
+        self.lines = 0
+        self.path: Path | None = None
+        self._f: LineFile | None = None
+
+    def open(self, path: Path) -> None:
+        """Start writing to ``path`` (created, truncated) with a header naming the columns."""
+        self.path = Path(path)
+        self._f = LineFile(self.path, buffer_bytes=1 << 14)
+        self._f.write_line("# schmidt-fil display log: one line per display refresh")
+        self._f.write_line("# t_s  screen (HA h:m:s, DEC d:m:s, axis rates arcsec/s, axis modes)")
+
+    def show(self, text: str) -> None:
+        """One screen written by the display firmware."""
+        self.last = text
+        self.lines += 1
+        if self._f is not None:
+            self._f.write_line(f"{_t(self.clock())} {sanitize(text)}")
+
+    def close(self) -> None:
+        """Flush and close (idempotent)."""
+        if self._f is not None:
+            self._f.close()

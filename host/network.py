@@ -24,6 +24,12 @@ Decisions written down here:
   link's receive callback once per packet (no per-byte or per-sample events).
 * **Focus encoder**: the focus firmware's QEI reads ``FocusPlant.motor_encoder_counts`` and is
   told the parameter file's counts per revolution.
+* **Room nodes** (issue 12: display, dome, weather): built only when named
+  (``build_network(..., boards=[...])``; the registry's ``default`` flag, until networks by
+  name replace it). The dome's plant is :class:`plant.dome.DomePlant`, the weather station reads
+  :class:`plant.weather.WeatherModel` (seed: the scenario's ``weather.seed`` or ``seed``; its
+  scripted ``weather.events``), the display writes to :class:`host.logs.DisplayLog`
+  (``display.log``). The room nodes have no RS232 telemetry layout, so no serial link.
 * **Reports read what ran**: :meth:`Telescope.plant_summary` reads the plants (their friction
   after effects, their parameters), :meth:`Telescope.controller_summary` and
   :meth:`Telescope.board_summary` read the boards; nothing reads the input files again.
@@ -42,20 +48,24 @@ import can
 import bus as _bus_pkg  # noqa: F401  (registers the schmidt-sim python-can interface)
 from boards.axis_controller import PRESET_RATES_ARCSEC_S, AxisMode
 from boards.peripherals import Adc
-from boards.registry import BOARD_NAMES, BOARDS, BoardInstance
+from boards.registry import BOARD_NAMES, BOARDS, DEFAULT_BOARD_NAMES, BoardInstance
 from boards.tuning import GAINS_SOURCE, design_axis_gains
 from bus import protocol as P
 from bus.network import CanNetwork
 from bus.scheduler import PRIO_PLANT, Scheduler
 from bus.serial_link import SerialLink
+from bus.telemetry import SAMPLE_FIELDS
 from bus.units import TICK_US
 from host import faults as _faults
 from host.client import HostClient
+from host.logs import DisplayLog
 from host.rs232 import Rs232Hub
 from host.scenario import Scenario, resolve_parameters
 from plant.axis import AxisPlant
 from plant.drive_map import open_loop_duty
+from plant.dome import DomePlant
 from plant.focus import FocusPlant
+from plant.weather import WeatherEvent, WeatherModel
 from plant.params import PlantParameters
 
 __all__ = ["Telescope", "build_network", "PORTS", "SETTINGS", "BOARD_NAMES"]
@@ -95,6 +105,9 @@ class Telescope:
     removed: set = field(default_factory=set)
     hub: Rs232Hub | None = None
     serial_links: dict = field(default_factory=dict)
+    dome_plant: DomePlant | None = None          # issue 12, room nodes
+    weather: WeatherModel | None = None
+    display_log: DisplayLog | None = None
     _can_snapshot: dict = field(default_factory=dict, repr=False)   # CAN registers at close()
 
     def advance_plants(self, now_us: int | None = None) -> None:
@@ -103,6 +116,9 @@ class Telescope:
         for p in self.plants.values():
             p.advance_to(t)
         self.focus_plant.advance_to(t)
+        for p in (self.dome_plant, self.weather):
+            if p is not None:
+                p.advance_to(t)
 
     def inject_fault(self, fault, now_us: int) -> None:
         """Apply one scenario fault (the table :data:`host.faults.FAULTS`)."""
@@ -177,6 +193,26 @@ class Telescope:
             out[name] = d
         return out
 
+    def room_summary(self) -> dict | None:
+        """Issue 12: the dome plant and the weather the station measured, when those boards ran
+        (None otherwise); read from the plant objects."""
+        out = {}
+        if "dome" in self.boards:
+            d = self.dome_plant
+            out["dome"] = {"azimuth_deg": round(d.azimuth_deg % 360.0, 3),
+                           "peak_rate_deg_s": round(d.peak_rate_deg_s, 4),
+                           "max_rate_deg_s": self.boards["dome"].max_rate_deg_s,
+                           "acceleration_deg_s2": self.boards["dome"].acceleration_deg_s2,
+                           "latitude_deg": self.boards["dome"].latitude_deg}
+        if "weather" in self.boards:
+            w = self.weather
+            out["weather"] = {"seed": w.seed, "events": len(w.events), "temperature_c": round(w.temperature_c, 2),
+                              "humidity_pct": round(w.humidity_pct, 2), "wind_m_s": round(w.wind_m_s, 2),
+                              "rain": w.rain}
+        if "display" in self.boards:
+            out["display"] = {"lines": self.display_log.lines, "last": self.display_log.last}
+        return out or None
+
     def rs232_summary(self) -> dict | None:
         """Per-port telemetry counters of the hub (None when RS232 is off)."""
         return self.hub.counters() if self.hub is not None else None
@@ -187,6 +223,8 @@ class Telescope:
         if not self._can_snapshot:
             self._can_snapshot.update({name: _can_registers(b) for name, b in self.boards.items()})
         self.client.close()
+        if self.display_log is not None:
+            self.display_log.close()
         if self.hub is not None:
             self.hub.close()
         for b in self.buses:
@@ -232,6 +270,9 @@ class _Build:
     plants: dict
     focus_plant: FocusPlant
     gains: dict
+    dome_plant: DomePlant | None = None
+    weather: WeatherModel | None = None
+    display_log: DisplayLog | None = None
 
 
 def _advancing(plant, sched: Scheduler, fn: Callable) -> Callable:
@@ -268,6 +309,14 @@ PORTS: dict[str, Callable[[_Build, BoardInstance], Callable]] = {
     "read_lvdt_v": lambda b, i: b.focus_plant.lvdt_voltage_v,
     "read_index": lambda b, i: b.focus_plant.at_index,
     "read_encoder_counts": lambda b, i: b.focus_plant.motor_encoder_counts,
+    # -- issue 12, room nodes
+    "on_show": lambda b, i: b.display_log.show,
+    "read_azimuth_counts": lambda b, i: _advancing(b.dome_plant, b.scheduler, b.dome_plant.encoder_counts),
+    "set_speed_reference": lambda b, i: _advancing(b.dome_plant, b.scheduler, b.dome_plant.set_speed_reference),
+    "read_temperature_v": lambda b, i: _advancing(b.weather, b.scheduler, b.weather.temperature_v),
+    "read_humidity_v": lambda b, i: _advancing(b.weather, b.scheduler, b.weather.humidity_v),
+    "read_wind_v": lambda b, i: _advancing(b.weather, b.scheduler, b.weather.wind_v),
+    "read_rain": lambda b, i: _advancing(b.weather, b.scheduler, lambda w=b.weather: w.rain),
 }
 
 
@@ -287,14 +336,37 @@ def _axis_settings(b: _Build, i: BoardInstance) -> dict:
 
 #: Board kind -> settings(build, instance) -> extra firmware keyword arguments taken from the
 #: parameter file and the scenario. Kinds without an entry take none.
+def _dome_settings(b: _Build, i: BoardInstance) -> dict:
+    d = b.params.dome
+    return dict(latitude_deg=b.params.site.latitude_deg, max_rate_deg_s=d.max_rate_deg_s,
+                acceleration_deg_s2=d.acceleration_deg_s2, deadband_deg=d.deadband_deg,
+                park_azimuth_deg=d.park_azimuth_deg, vfd_full_scale_deg_s=d.vfd_full_scale_deg_s,
+                encoder_counts_per_rev=d.encoder_counts_per_rev, dac_bits=d.dac_bits,
+                control_period_us=d.control_period_us, position_timeout_us=d.position_timeout_us)
+
+
+def _weather_settings(b: _Build, i: BoardInstance) -> dict:
+    w = b.params.weather
+    return dict(sample_period_us=w.sample_period_us, temperature_min_c=w.temperature_min_c,
+                temperature_max_c=w.temperature_max_c, wind_full_scale_m_s=w.wind_full_scale_m_s,
+                high_wind_limit_m_s=w.high_wind_limit_m_s, high_wind_clear_m_s=w.high_wind_clear_m_s,
+                humidity_limit_pct=w.humidity_limit_pct, clear_hold_s=w.clear_hold_s)
+
+
 SETTINGS: dict[str, Callable[[_Build, BoardInstance], dict]] = {
     "axis_controller": _axis_settings,
     "position_reader": lambda b, i: {"safety": b.scenario.safety_limits()},
     "focus_controller": lambda b, i: {"encoder_counts_per_rev": b.params.focus.motor_encoder_counts_per_rev},
+    # -- issue 12, room nodes
+    "display": lambda b, i: {"refresh_period_us": b.params.display.refresh_period_us,
+                             "stale_timeout_us": b.params.display.stale_timeout_us},
+    "dome": _dome_settings,
+    "weather": _weather_settings,
 }
 
 
-def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient) -> Telescope:
+def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient,
+                  boards=None) -> Telescope:
     """Build clock, bus, plants, boards and host client for ``scenario`` (boards started).
 
     Parameters
@@ -305,6 +377,10 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient) -
         The host node's class: :class:`host.client.HostClient` (default) or a subclass such as
         :class:`host.monitor.BusMonitor` (``schmidt-fil serve``: a passive monitor, so that a
         host program outside the emulator commands the boards).
+    boards : iterable of str, optional
+        Registry names of the boards to build (built in node order); default
+        :data:`boards.registry.DEFAULT_BOARD_NAMES` (today's five). The host's health check
+        expects exactly these.
 
     Returns
     -------
@@ -316,7 +392,14 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient) -
     ------
     ScenarioError
         Parameter file or overrides invalid.
+    KeyError
+        An unknown board name (the message lists the valid ones).
     """
+    wanted = DEFAULT_BOARD_NAMES if boards is None else tuple(boards)
+    for name in wanted:
+        if name not in BOARDS:
+            raise KeyError(f"unknown board {name!r}; valid: {', '.join(BOARD_NAMES)}")
+    selected = {name: BOARDS[name] for name in BOARD_NAMES if name in wanted}
     params = resolve_parameters(scenario)
     sched = Scheduler()
     iface = scenario.bus.interface
@@ -331,10 +414,17 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient) -
 
     plants = {axis: AxisPlant(params.axes[axis], name=axis) for axis in AXES}
     focus_plant = FocusPlant(params.focus)
+    dome_plant = DomePlant(params.dome)
+    ws = scenario.weather
+    weather = WeatherModel(params.weather, scenario.seed if ws.seed is None else ws.seed,
+                           [WeatherEvent(e.at_s, e.kind, e.duration_s, e.wind_m_s or 0.0) for e in ws.events])
+    display_log = DisplayLog(lambda: sched.now_us)
 
     def plant_tick(now_us: int) -> None:
         for p in plants.values():
             p.advance_to(now_us)
+        if dome_plant.rate_deg_s:
+            dome_plant.advance_to(now_us)
 
     sched.call_every(PLANT_PERIOD_US, plant_tick, start_us=0, priority=PRIO_PLANT, owner="plant")
 
@@ -346,6 +436,7 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient) -
               for i, axis in enumerate(AXES)}
     client = host_cls(
         bus=new_bus(), scheduler=sched, preset_rates_arcsec_s=preset,
+        expected_nodes=tuple(int(inst.node_id) for _, inst in selected.values()),
         # the duty-speed map with the counter fraction the axis firmware runs
         open_loop_duty=lambda rate, axis: open_loop_duty(rate, params.axes[axis],
                                                          boards[_AXIS_BOARD[axis]].counter_fraction),
@@ -355,20 +446,22 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient) -
     # RS232 telemetry: one point-to-point link per board, the far ends on the host's hub
     rs = scenario.rs232
     hub = Rs232Hub(sched, rs.baud) if rs.enabled else None
-    links = {name: SerialLink(sched, baud=rs.baud, name=f"rs232-{name}") for name in BOARD_NAMES} if hub else {}
+    links = {name: SerialLink(sched, baud=rs.baud, name=f"rs232-{name}") for name, (spec, _) in selected.items()
+             if int(spec.device_type) in SAMPLE_FIELDS} if hub else {}
 
-    build = _Build(scenario, sched, params, plants, focus_plant, {})
-    for name, (spec, inst) in BOARDS.items():
+    build = _Build(scenario, sched, params, plants, focus_plant, {}, dome_plant, weather, display_log)
+    for name, (spec, inst) in selected.items():
         kwargs = {port: PORTS[port](build, inst) for port in spec.ports}
         kwargs.update(SETTINGS.get(spec.kind, lambda b, i: {})(build, inst))
         boards[name] = spec.firmware(sched, new_bus(), inst.node_id, name=name,
-                                     serial_port=links[name].a if links else None, **kwargs)
+                                     serial_port=links[name].a if name in links else None, **kwargs)
     client.arcsec_per_count = {axis: boards[_AXIS_BOARD[axis]].arcsec_per_count for axis in AXES}
     if hub is not None:
-        for name in BOARD_NAMES:
+        for name in links:
             hub.add_port(links[name].b, name, boards[name].node_id)
     for b in boards.values():
         b.start()
     return Telescope(scenario=scenario, scheduler=sched, params=params, network=network, plants=plants,
                      focus_plant=focus_plant, boards=boards, client=client, gains=build.gains, buses=buses,
-                     hub=hub, serial_links=links)
+                     hub=hub, serial_links=links, dome_plant=dome_plant, weather=weather,
+                     display_log=display_log)

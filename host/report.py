@@ -303,6 +303,12 @@ def _markdown(r: dict) -> str:
                 lines.append(f"| {name} | {i['device_name']} | {i['product_code']} | 0x{i['revision']:08X} | "
                              f"0x{i['serial_number']:08X} | {i['software_version']} | {params} |")
             lines.append("")
+    if r.get("room"):                      # issue 12: dome, weather station, display unit
+        lines += ["## Room nodes", ""]
+        for part, d in r["room"].items():
+            lines.append(f"- {part}: " + ", ".join(f"{k} = {v}" for k, v in d.items()))
+        lines += [f"- weather stops: {r.get('weather_stops', 0)}, motion commands refused by the host: "
+                  f"{r.get('host_refused_commands', 0)}", ""]
     if r.get("errors"):
         lines += ["## Errors", ""] + [f"- {e}" for e in r["errors"]] + [""]
     return "\n".join(lines)

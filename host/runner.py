@@ -17,7 +17,7 @@ import numpy as np
 from bus.errors import HostTimeout
 from host.report import MEASUREMENT_METHOD, AxisTrace, plot_axes, segment_metrics, write_reports
 from host.realtime import SIM_STEP_US
-from host.scenario import Scenario
+from host.scenario import Scenario, ScenarioError
 from host.session import SAMPLE_PERIOD_US, SAMPLE_PHASE_US, Session, sensor_row  # noqa: F401  (re-exported)
 
 __all__ = ["RunResult", "run_scenario", "sensor_row", "SAMPLE_PERIOD_US", "SAMPLE_PHASE_US"]
@@ -65,6 +65,7 @@ def run_scenario(
     out_dir: Path | None,
     progress: Callable[[float, float], None] | None = None,
     plots: bool = True,
+    boards=None,
 ) -> RunResult:
     """Build the network of ``scenario``, run every segment and write logs and reports.
 
@@ -80,6 +81,10 @@ def run_scenario(
         Called every 0.2 simulated seconds.
     plots : bool
         Write PNG plots (needs ``out_dir``).
+    boards : iterable of str, optional
+        Registry names of the boards to build (default: today's five,
+        :data:`boards.registry.DEFAULT_BOARD_NAMES`); e.g. add ``"display"``, ``"dome"``,
+        ``"weather"`` for the room nodes of issue 12 (``display.log`` is then written).
 
     Returns
     -------
@@ -94,7 +99,13 @@ def run_scenario(
         written up to that point are kept.
     """
     out_dir = Path(out_dir) if out_dir is not None else None
-    session = Session(scenario, out_dir, header=f"scenario {scenario.name}; seed {scenario.seed}")
+    build = None
+    if boards is not None:
+        from host.network import build_network
+
+        def build(sc, host_cls):
+            return build_network(sc, host_cls=host_cls, boards=boards)
+    session = Session(scenario, out_dir, header=f"scenario {scenario.name}; seed {scenario.seed}", build=build)
     tel, client, sched, logs = session.tel, session.client, session.scheduler, session.logs
     rec = _Recorder()
     setpoints = client.setpoints
@@ -119,6 +130,10 @@ def run_scenario(
             progress(sched.now_us / 1e6, total_us / 1e6)
 
     try:
+        for i, seg in enumerate(scenario.segments):     # before anything runs
+            if seg.dome is not None and "dome" not in tel.boards:
+                raise ScenarioError(scenario.source_path, None, f"segments[{i}].dome",
+                                    "the network has no dome board")
         healthy = client.power_on()
         if not healthy.ok:
             raise HostTimeout(
@@ -134,6 +149,8 @@ def run_scenario(
                 client.command_axis(axis, seg.mode, seg.direction, seg.rate_arcsec_s)
             if seg.focus_halfsteps is not None:
                 client.command_focus_move_to(seg.focus_halfsteps)
+            if seg.dome is not None:
+                client.command_dome(seg.dome)
             t_end = t0 + int(round(seg.duration_s * 1e6))
             session.advance(t_end, on_step=show_progress)
             seg_spans.append({"seg": seg, "axes": axes, "t0_us": t0, "t1_us": t_end,
@@ -189,6 +206,8 @@ def run_scenario(
                           "parameters": client.parameters.get(name)}
                    for name, row in tel.board_summary().items()},
         "rs232": tel.rs232_summary(),
+        "room": tel.room_summary(),              # issue 12: dome, weather, display (None without them)
+        "weather_stops": client.weather_stops, "host_refused_commands": client.refused_commands,
         "errors": session.errors + client.error_lines(),
         "realtime": session.clock_stats(),
     }

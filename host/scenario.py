@@ -160,6 +160,36 @@ class ReportConfig(_Strict):
     velocity_window_ms: int = Field(100, ge=10, le=10_000)
 
 
+# -- issue 12, room nodes: the weather station's time series -------------------------------------
+class WeatherEventConfig(_Strict):
+    """A scripted weather event (``plant.weather.WeatherEvent``): ``gust`` raises the wind to at
+    least ``wind_m_s`` for ``duration_s``; ``rain`` wets the rain sensor for ``duration_s``.
+    ``at_s`` is simulated time since power-on (t = 0)."""
+
+    at_s: float = Field(ge=0)
+    kind: Literal["gust", "rain"]
+    duration_s: float = Field(gt=0, le=86_400)
+    wind_m_s: float | None = Field(None, ge=0, le=100)
+
+    @model_validator(mode="after")
+    def _check(self) -> "WeatherEventConfig":
+        if self.kind == "gust" and self.wind_m_s is None:
+            raise ValueError("a gust needs wind_m_s")
+        if self.kind == "rain" and self.wind_m_s is not None:
+            raise ValueError("wind_m_s is only for a gust")
+        return self
+
+
+class WeatherConfig(_Strict):
+    """The weather the weather station measures (used when the network has the station):
+    the seeded series of ``plant/weather.py`` (its parameters: ``plant.overrides`` under
+    ``weather.*``) with ``seed`` (default: the scenario's ``seed``) and scripted ``events``."""
+
+    seed: int | None = None
+    events: list[WeatherEventConfig] = Field(default_factory=list, max_length=10_000)
+# -- end room nodes
+
+
 class Segment(_Strict):
     """One step of a scenario: command one axis (or both) and hold for ``duration_s``.
 
@@ -177,6 +207,8 @@ class Segment(_Strict):
     duration_s: float = Field(gt=0, le=3600)
     settle_s: float = Field(0.0, ge=0)
     focus_halfsteps: int | None = None
+    dome: Literal["follow", "park", "stop"] | None = Field(
+        None, description="issue 12: a DOME_COMMAND sent with the segment (needs the dome in the network)")
 
     @model_validator(mode="after")
     def _check(self) -> "Segment":
@@ -257,6 +289,7 @@ class Scenario(_Strict):
     log: LogConfig = Field(default_factory=LogConfig)
     rs232: Rs232Config = Field(default_factory=Rs232Config)
     report: ReportConfig = Field(default_factory=ReportConfig)
+    weather: WeatherConfig = Field(default_factory=WeatherConfig)   # issue 12, room nodes
     faults: list[Fault] = Field(default_factory=list, max_length=MAX_FAULTS)
     segments: list[Segment] = Field(min_length=1, max_length=MAX_SEGMENTS)
     source_path: str = Field("<string>", exclude=True)
@@ -289,6 +322,9 @@ class Scenario(_Strict):
         total = self.duration_s
         if total > MAX_DURATION_S:
             raise ValueError(f"the segments last {total:.0f} s; at most {MAX_DURATION_S:.0f} s per run")
+        for i, e in enumerate(self.weather.events):
+            if e.at_s > total:
+                raise ValueError(f"weather.events[{i}].at_s = {e.at_s} s is after the end of the run ({total} s)")
         for i, f in enumerate(self.faults):
             if f.at_s > total:
                 raise ValueError(f"faults[{i}].at_s = {f.at_s} s is after the end of the run ({total} s)")

@@ -19,7 +19,7 @@ from typing import Callable
 from bus.errors import SimulationError
 from bus.scheduler import PRIO_HOST
 from host.client import HostClient
-from host.logs import CANDUMP_LOG, CandumpWriter, HostLogs
+from host.logs import CANDUMP_LOG, DISPLAY_LOG, CandumpWriter, HostLogs
 from host.realtime import clock_for
 from host.rs232 import TELEMETRY_LOG
 from host.scenario import Scenario
@@ -86,6 +86,11 @@ class Session:
             self._close_files()
             raise
         try:
+            for i, f in enumerate(scenario.faults):      # issue 12: not every registry board is built
+                if f.board is not None and f.board not in self.tel.boards:
+                    from host.scenario import ScenarioError
+                    raise ScenarioError(scenario.source_path, None, f"faults[{i}].board",
+                                        f"{f.board!r} is not in this network ({', '.join(self.tel.boards)})")
             if not logs_first:
                 self._open_logs(header)
             # sim: every frame on the wire; other buses: every frame a monitor receives (a
@@ -106,6 +111,8 @@ class Session:
                 self.client.on_frame = self.candump.write
         if self.out_dir is not None and self.tel.hub is not None:
             self.tel.hub.open_log(self.out_dir / TELEMETRY_LOG)
+        if self.out_dir is not None and "display" in self.tel.boards:   # issue 12: the display unit
+            self.tel.display_log.open(self.out_dir / DISPLAY_LOG)
         self.paced = scenario.bus.interface == "socketcan"
         self.clock = None   # made at the first advance, so the wall-clock origin is when time starts
         self._sensor_every = max(1, round(1e6 / scenario.log.rate_hz / SAMPLE_PERIOD_US))
@@ -195,6 +202,8 @@ class Session:
             out.append(self.candump.path)
         if self.tel.hub is not None and self.tel.hub.log_path is not None:
             out.append(self.tel.hub.log_path)
+        if self.tel.display_log is not None and self.tel.display_log.path is not None:
+            out.append(self.tel.display_log.path)
         return out
 
     def clock_stats(self) -> dict | None:

@@ -382,6 +382,142 @@ class FocusParameters:
         return self.metres_per_motor_rev / self.halfsteps_per_motor_rev
 
 
+# -- issue 12, room nodes: site, dome, weather, display -----------------------------------------
+Latitude = Annotated[float, BeforeValidator(_number), Field(ge=-90, le=90)]
+Longitude = Annotated[float, BeforeValidator(_number), Field(ge=-180, le=180)]
+Fraction = Annotated[float, BeforeValidator(_number), Field(ge=0, le=1)]
+Azimuth = Annotated[float, BeforeValidator(_number), Field(ge=0, lt=360)]
+Percent = Annotated[float, BeforeValidator(_number), Field(ge=0, le=100)]
+
+
+@dataclass(frozen=True, config=_CFG)
+class SiteParameters:
+    """The observatory site (paper §2: 29°22' N, 79°27' E, ARIES Manora Peak, Nainital).
+
+    Attributes
+    ----------
+    latitude_deg, longitude_deg : float
+        Geodetic latitude (north +) and longitude (east +) [deg].
+    """
+
+    latitude_deg: Latitude
+    longitude_deg: Longitude
+
+
+@dataclass(frozen=True, config=_CFG)
+class DomeParameters:
+    """The dome: its azimuth drive limits (firmware) and its plant (:class:`plant.dome.DomePlant`).
+
+    Attributes
+    ----------
+    max_rate_deg_s : float
+        Azimuth rate limit the dome firmware commands at most [deg/s].
+    acceleration_deg_s2 : float
+        Azimuth acceleration limit of the firmware's rate ramp [deg/s²].
+    deadband_deg : float
+        The dome starts moving when the slit is off target by more than this [deg].
+    park_azimuth_deg : float
+        Azimuth PARK drives to [deg, N = 0, E = 90].
+    initial_azimuth_deg : float
+        Azimuth of the dome at power-on [deg].
+    vfd_full_scale_deg_s : float
+        Dome rotation rate at full-scale speed reference of the drive (the DAC's ±1) [deg/s].
+    encoder_counts_per_rev : int
+        Absolute azimuth encoder counts per dome revolution.
+    dac_bits : int
+        Resolution of the firmware's speed-reference DAC.
+    control_period_us : int
+        The dome firmware's control loop period [µs].
+    position_timeout_us : int
+        FOLLOW holds (POSITION_STALE) when no POSITION frame of an axis arrived for this long [µs].
+    """
+
+    max_rate_deg_s: Positive
+    acceleration_deg_s2: Positive
+    deadband_deg: Positive
+    park_azimuth_deg: Azimuth
+    initial_azimuth_deg: Azimuth
+    vfd_full_scale_deg_s: Positive
+    encoder_counts_per_rev: PositiveInt
+    dac_bits: PositiveInt
+    control_period_us: PositiveInt
+    position_timeout_us: PositiveInt
+
+
+@dataclass(frozen=True, config=_CFG)
+class WeatherParameters:
+    """The weather at the site (:class:`plant.weather.WeatherModel`), the station's sensors and
+    its thresholds (firmware, :class:`boards.weather.WeatherStation`).
+
+    Attributes
+    ----------
+    sample_period_us : int
+        Step of the time series and the station's sampling period [µs].
+    temperature_mean_c, temperature_diurnal_c, temperature_noise_c : float
+        Mean, diurnal half-amplitude (maximum at 14 h local) and AR(1) noise std [°C].
+    start_local_hour : float
+        Local solar hour at simulated t = 0 [h].
+    humidity_mean_pct, humidity_noise_pct : float
+        Mean and stationary std of the relative humidity [%] (clipped to 0..100).
+    humidity_tau_s : float
+        Correlation time of the humidity process [s].
+    wind_mean_m_s, wind_noise_m_s, wind_tau_s : float
+        Mean, stationary std and correlation time of the wind speed (Ornstein–Uhlenbeck,
+        clipped at 0) [m/s, s].
+    rain_rate_per_h, rain_duration_s : float
+        Seeded rain episodes: Poisson rate [1/h] (0 = none) and length [s].
+    high_wind_limit_m_s, high_wind_clear_m_s : float
+        HIGH_WIND sets at or above the limit and clears after the wind stayed below the clear
+        level for ``clear_hold_s`` [m/s].
+    humidity_limit_pct : float
+        RAIN also sets at or above this relative humidity [%].
+    clear_hold_s : float
+        A flag clears only after its condition was absent this long [s].
+    temperature_min_c, temperature_max_c : float
+        Temperature at 0 V and 5 V of the station's temperature input [°C].
+    wind_full_scale_m_s : float
+        Wind speed at 5 V of the anemometer's analog output [m/s].
+    """
+
+    sample_period_us: PositiveInt
+    temperature_mean_c: Number
+    temperature_diurnal_c: NonNegative
+    temperature_noise_c: NonNegative
+    start_local_hour: Annotated[float, BeforeValidator(_number), Field(ge=0, lt=24)]
+    humidity_mean_pct: Percent
+    humidity_noise_pct: NonNegative
+    humidity_tau_s: Positive
+    wind_mean_m_s: NonNegative
+    wind_noise_m_s: NonNegative
+    wind_tau_s: Positive
+    rain_rate_per_h: NonNegative
+    rain_duration_s: Positive
+    high_wind_limit_m_s: Positive
+    high_wind_clear_m_s: NonNegative
+    humidity_limit_pct: Percent
+    clear_hold_s: NonNegative
+    temperature_min_c: Number
+    temperature_max_c: Number
+    wind_full_scale_m_s: Positive
+
+
+@dataclass(frozen=True, config=_CFG)
+class DisplayParameters:
+    """The digital display unit (firmware, :class:`boards.display.DisplayUnit`).
+
+    Attributes
+    ----------
+    refresh_period_us : int
+        One refresh of the display (and one display-log line) per period [µs].
+    stale_timeout_us : int
+        An input older than this is shown as dashes [µs].
+    """
+
+    refresh_period_us: PositiveInt
+    stale_timeout_us: PositiveInt
+# -- end room nodes
+
+
 def _check_axes(axes: dict) -> dict:
     if tuple(sorted(axes)) != tuple(sorted(AXIS_NAMES)):
         raise ValueError(f"expected exactly the axes {list(AXIS_NAMES)}, got {sorted(axes)}")
@@ -399,6 +535,8 @@ class PlantParameters:
     axes : dict[str, AxisParameters]
         ``"ra"`` and ``"dec"``.
     focus : FocusParameters
+    site, dome, weather, display : SiteParameters, DomeParameters, WeatherParameters, DisplayParameters
+        The room nodes of issue 12 (dome, weather station, display unit) and the site.
     tree : dict
         The raw file tree (with overrides applied); units and sources for :func:`dump_parameters`.
     """
@@ -406,6 +544,10 @@ class PlantParameters:
     perfect: Switch
     axes: Annotated[dict[str, AxisParameters], AfterValidator(_check_axes)]
     focus: FocusParameters
+    site: SiteParameters            # issue 12, room nodes
+    dome: DomeParameters
+    weather: WeatherParameters
+    display: DisplayParameters
     tree: dict = field(repr=False, compare=False, default_factory=dict)
 
     @property

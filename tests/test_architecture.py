@@ -110,12 +110,13 @@ def test_built_network_follows_the_registry(tmp_path):
     """build_network builds exactly the registry's boards, each of its firmware class, and on
     the bus each board sends only the frames the registry says it sends."""
     sc = parse_scenario("name: r\nsegments:\n  - {name: a, mode: stop, duration_s: 1}\n", str(tmp_path / "s.yaml"))
-    tel = build_network(sc)
+    tel = build_network(sc, boards=R.BOARD_NAMES)      # every board of the registry
     seen: dict[int, set] = {}
     try:
         tel.network.add_tap(lambda m: seen.setdefault(m.arbitration_id, set()).add(bytes(m.data[:1])))
         tel.client.power_on()
         tel.client.command_axis("ra", "track", 1)
+        tel.client.command_dome("follow")
         tel.scheduler.run_until(tel.scheduler.now_us + 1_500_000)
     finally:
         tel.close()
@@ -156,3 +157,15 @@ def test_a_new_board_kind_is_one_firmware_class_and_one_registry_entry(tmp_path,
     finally:
         tel.close()
     assert rows["focus"]["node"] == int(P.NodeId.FOCUS) and rows["focus"]["state"] == "OPERATIONAL"
+
+
+def test_default_network_is_the_registry_default_boards(tmp_path):
+    """Without a board list, build_network builds the registry's default boards (today's five)
+    and the host's health check expects exactly those."""
+    sc = parse_scenario("name: r\nsegments:\n  - {name: a, mode: stop, duration_s: 1}\n", str(tmp_path / "s.yaml"))
+    tel = build_network(sc)
+    try:
+        assert tuple(tel.boards) == R.DEFAULT_BOARD_NAMES
+        assert tel.client.expected_nodes == tuple(R.BOARDS[n][1].node_id for n in R.DEFAULT_BOARD_NAMES)
+    finally:
+        tel.close()

@@ -329,6 +329,47 @@ _FOCUS_MFR = (
         description="LVDT ADC count at the focus reference position (paper 3.3 re-referencing)"),
 )
 
+# -- issue 12, room nodes: manufacturer objects (values: plant/parameters.yaml, via host/network.py)
+_DISPLAY_MFR = (
+    compound(0x2300, "Display", RECORD, [
+        Entry(1, "Refresh period", UNSIGNED16, "ro", None, 1, 65535, unit="ms",
+              description="one display refresh (and display log line) per period"),
+        Entry(2, "Stale timeout", UNSIGNED16, "ro", None, 1, 65535, unit="ms",
+              description="an input older than this is shown as dashes"),
+        Entry(3, "Frames received", UNSIGNED32, "ro", None, unit="frames",
+              description="POSITION and AXIS_STATUS frames consumed since reset"),
+    ], "digital display unit (paper 3.4)"),
+)
+
+_DOME_MFR = (
+    compound(0x2400, "Dome drive", RECORD, [
+        Entry(1, "Maximum rate", UNSIGNED32, "ro", None, 1, I32_MAX, unit="milli-deg/s",
+              description="azimuth rate limit of the dome drive"),
+        Entry(2, "Acceleration", UNSIGNED32, "ro", None, 1, I32_MAX, unit="milli-deg/s^2",
+              description="azimuth acceleration limit"),
+        Entry(3, "Deadband", UNSIGNED16, "rw", None, 1, 18000, unit="0.01 deg",
+              description="the dome starts moving when the slit is off target by more"),
+        Entry(4, "Park azimuth", UNSIGNED16, "rw", None, 0, 35999, unit="0.01 deg",
+              description="azimuth PARK drives to"),
+        Entry(5, "Site latitude", INTEGER32, "ro", None, -90_000_000, 90_000_000, unit="micro-deg",
+              description="latitude used to turn HA/DEC into azimuth (paper 2: 29 deg 22 min N)"),
+    ], "dome azimuth drive (paper 5.2)"),
+)
+
+_WEATHER_MFR = (
+    compound(0x2500, "Weather limits", RECORD, [
+        Entry(1, "High wind limit", UNSIGNED16, "ro", None, 1, 65535, unit="cm/s",
+              description="HIGH_WIND sets at or above this wind speed"),
+        Entry(2, "High wind clear", UNSIGNED16, "ro", None, 0, 65535, unit="cm/s",
+              description="HIGH_WIND clears after the wind stayed below this for the clear hold"),
+        Entry(3, "Clear hold", UNSIGNED16, "ro", None, 0, 65535, unit="s",
+              description="how long a condition must be absent before its flag clears"),
+        Entry(4, "Humidity limit", UNSIGNED16, "ro", None, 0, 10000, unit="0.01 %",
+              description="RAIN also sets at or above this relative humidity (condensation)"),
+    ], "weather station thresholds (paper 5.2)"),
+)
+# -- end room nodes
+
 KINDS: Dict[str, Kind] = {k.name: k for k in (
     Kind("axis_controller", "schmidt-fil axis controller", int(proto.DeviceType.AXIS_CONTROLLER),
          tuple(int(n) for n in proto.AXIS_NODES), "dsPIC30F3011",
@@ -352,6 +393,28 @@ KINDS: Dict[str, Kind] = {k.name: k for k in (
          rpdos=(Pdo(1, "FOCUS_COMMAND", "$NODEID+0x200"),
                 Pdo(3, "STOP_ALL", STOP_ALL_COB_ID, note="host TPDO1, consumed by every board")),
          consumer_heartbeat=(("Host heartbeat", HOST_HB),), manufacturer=_FOCUS_MFR),
+    # -- issue 12, room nodes
+    Kind("display", "schmidt-fil digital display unit", int(proto.DeviceType.DISPLAY),
+         (int(proto.NodeId.DISPLAY),), "PIC18F4480",
+         tpdos=(Pdo(1, "DISPLAY_STATUS", "$NODEID+0x180", _ms(proto.DISPLAY_STATUS_PERIOD_US)),),
+         rpdos=(Pdo(1, "POSITION", 0x180 + int(proto.NodeId.RA_READER), note="RA reader TPDO1"),
+                Pdo(2, "POSITION", 0x180 + int(proto.NodeId.DEC_READER), note="DEC reader TPDO1"),
+                Pdo(3, "AXIS_STATUS", 0x180 + int(proto.NodeId.RA_AXIS), note="RA axis TPDO1"),
+                Pdo(4, "AXIS_STATUS", 0x180 + int(proto.NodeId.DEC_AXIS), note="DEC axis TPDO1")),
+         consumer_heartbeat=(("Host heartbeat", HOST_HB),), manufacturer=_DISPLAY_MFR),
+    Kind("dome", "schmidt-fil dome controller", int(proto.DeviceType.DOME),
+         (int(proto.NodeId.DOME),), "PIC18F4431",
+         tpdos=(Pdo(1, "DOME_STATUS", "$NODEID+0x180", _ms(proto.DOME_STATUS_PERIOD_US)),),
+         rpdos=(Pdo(1, "DOME_COMMAND", "$NODEID+0x200"),
+                Pdo(2, "POSITION", 0x180 + int(proto.NodeId.RA_READER), note="RA reader TPDO1"),
+                Pdo(3, "STOP_ALL", STOP_ALL_COB_ID, note="host TPDO1, consumed by every board"),
+                Pdo(4, "POSITION", 0x180 + int(proto.NodeId.DEC_READER), note="DEC reader TPDO1")),
+         consumer_heartbeat=(("Host heartbeat", HOST_HB),), manufacturer=_DOME_MFR),
+    Kind("weather", "schmidt-fil weather station", int(proto.DeviceType.WEATHER),
+         (int(proto.NodeId.WEATHER),), "PIC18F4480",
+         tpdos=(Pdo(1, "WEATHER_STATUS", "$NODEID+0x180", _ms(proto.WEATHER_STATUS_PERIOD_US)),),
+         rpdos=(), consumer_heartbeat=(("Host heartbeat", HOST_HB),), manufacturer=_WEATHER_MFR),
+    # -- end room nodes
     Kind("host", "schmidt-fil host (USB-to-CAN gateway)", int(proto.DeviceType.HOST),
          (int(proto.NodeId.HOST),), "PIC18F4550",
          tpdos=(Pdo(1, "STOP_ALL", "$NODEID+0x180", note="broadcast; every board consumes it"),),
@@ -410,7 +473,9 @@ def _communication_objects(k: Kind) -> List[Obj]:
 
 #: Process-data objects: one RECORD per frame carried as a PDO, in this order from 0x3000.
 PDO_FRAMES = ("AXIS_STATUS", "AXIS_AUX", "AXIS_COMMAND", "LIMIT", "POSITION", "FOCUS_STATUS",
-              "FOCUS_COMMAND", "STOP_ALL")
+              "FOCUS_COMMAND", "STOP_ALL",
+              # issue 12, room nodes
+              "DISPLAY_STATUS", "DOME_STATUS", "DOME_COMMAND", "WEATHER_STATUS")
 PROCESS_DATA_BASE = 0x3000
 _TYPE_BY_BYTES = {(1, False): UNSIGNED8, (2, False): UNSIGNED16, (3, False): UNSIGNED24,
                   (4, False): UNSIGNED32, (1, True): INTEGER8, (2, True): INTEGER16,
