@@ -23,7 +23,7 @@ from typing import Callable
 
 import can
 
-from boards.registry import BOARDS
+from boards.registry import BOARDS, network_boards
 from bus import protocol as P
 from bus.errors import BusError, SimulationError
 from bus.units import ARCSEC_PER_RAD
@@ -63,9 +63,10 @@ def serve_scenario(scenario: Scenario, channel: str | None = None) -> Scenario:
     return scenario.model_copy(update={"bus": bus})
 
 
-def served_interface() -> list[dict]:
+def served_interface(network="basic") -> list[dict]:
     """What the emulated boards offer on the bus, per board in node order: node id, the COB-IDs
-    it sends and the COB-IDs a host sends to it (from the board registry, :mod:`boards.registry`).
+    it sends and the COB-IDs a host sends to it (from the board registry, :mod:`boards.registry`),
+    for the boards of ``network`` (a scenario's ``network``: name or list of boards).
 
     Returns
     -------
@@ -73,7 +74,8 @@ def served_interface() -> list[dict]:
         ``{"board", "node", "sends": [(cob_id, name), ...], "listens": [(cob_id, name), ...]}``.
     """
     return [{"board": name, "node": int(inst.node_id), "sends": spec.sends(inst.node_id),
-             "listens": spec.accepts(inst.node_id)} for name, (spec, inst) in BOARDS.items()]
+             "listens": spec.accepts(inst.node_id)}
+            for name, (spec, inst) in ((n, BOARDS[n]) for n in network_boards(network))]
 
 
 class ServeSession(Session):

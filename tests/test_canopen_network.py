@@ -8,13 +8,17 @@ import pytest
 
 from boards.registry import BOARDS
 from bus import protocol as P
+from boards.registry import network_nodes
 from bus.eds.objects import serial_number
 from host.network import build_network
 from host.runner import run_scenario
 from host.scenario import parse_scenario
 from canopen_sim import PumpedNetwork
 
-SCENARIO = "name: c\nsegments:\n  - {name: a, axis: ra, mode: track, direction: 1, duration_s: 0.5}\n"
+#: the boards of the default (basic) network that answer the health check
+BASIC_NODES = network_nodes("basic")
+
+SCENARIO = "name: c\nnetwork: full\nsegments:\n  - {name: a, axis: ra, mode: track, direction: 1, duration_s: 0.5}\n"
 
 
 @pytest.fixture
@@ -33,6 +37,10 @@ def _expected_parameters(board) -> dict:
         per_deg = 3600 / (1_296_000 / 2 ** 29)
         return {(0x2100, 1): round(board.low_limit_deg * per_deg), (0x2100, 2): round(board.high_limit_deg * per_deg),
                 (0x2101, 0): board.offset_counts}
+    if board.KIND == "tachometer":
+        return {(0x2300, 0): board.counts_per_rev}
+    if board.KIND == "aux_encoder":
+        return {(0x2400, 2): int(board.turns_seeded), (0x2400, 3): 17}
     return {(0x2200, 1): board.travel_halfsteps, (0x2200, 2): round(1e6 / board.step_period_us)}
 
 
@@ -71,7 +79,7 @@ def test_nmt_from_the_master_gates_the_process_data(tel):
     tel.scheduler.run_until(tel.scheduler.now_us + 1_500_000)
     after = [(t, cid, d) for t, cid, d in master.received if t > t_stop]
     assert not {cid for _, cid, _ in after} & pdo_ids
-    assert {cid for _, cid, d in after if d == bytes([4])} >= {P.heartbeat_cob_id(n) for n in P.BOARD_NODES}
+    assert {cid for _, cid, d in after if d == bytes([4])} >= {P.heartbeat_cob_id(n) for n in BASIC_NODES}
 
 
 def test_report_lists_identity_and_parameters_read_back_over_sdo(tmp_path):
