@@ -83,6 +83,7 @@ class Tachometer(Board):
         self.counts_per_rev = int(counts_per_rev)
         self.period_us = int(period_us)
         self.qei = Qei(read_motor_counts)
+        self.qei.reset()            # power-on: POSCNT cleared (the count is relative to power-on)
         self._urad_per_count_tick = 2.0 * math.pi / self.counts_per_rev * 1e6 / (self.period_us * 1e-6)
         self.timer = self.add_timer(Timer(scheduler, self.period_us, self.isr_tick, priority=PRIO_ISR,
                                           owner=f"{self.name}/isr"))
