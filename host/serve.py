@@ -237,8 +237,14 @@ class ServeSession(Session):
         for axis in truth:
             plant[axis]["truth"] = truth[axis]
         errors = self.errors + mon.error_lines()
+        extra = {}
+        if self.maintenance is not None:            # issue 12: §5.2 maintenance quantities
+            extra["maintenance"] = self.maintenance.summary(
+                {axis: round(p.params.gear.ratio, 4) for axis, p in tel.plants.items()})
         return {
             "command": "serve",
+            "network": tel.network_name,
+            "nodes": {name: b.node_id for name, b in tel.boards.items()},
             "scenario": self.scenario.name,
             "scenario_file": self.scenario.source_path,
             "seed": self.scenario.seed,
@@ -259,6 +265,7 @@ class ServeSession(Session):
             "realtime": self.clock_stats(),
             "errors_total": len(errors),
             "errors": errors[:REPORT_MAX_ERRORS],
+            **extra,
         }
 
 
