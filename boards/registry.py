@@ -190,6 +190,9 @@ def nodes_of_kind(kind: str) -> dict[str, int]:
 #:   for the two axes, velocity measurements for the four DC motors, digital display unit, along
 #:   with USB-to-CAN node"): 2 axis controllers, 2 readers, 4 tachometers, the display, the gateway;
 #: * ``full``: every board of the registry (Fig. 5's "over sixteen" once all kinds exist).
+#: Kind of the host's own node (the PC's USB-HID gateway, paper §3.4): on every network, an
+#: explicit list included.
+HOST_NODE_KIND = "usb_gateway"
 NETWORK_KINDS: dict[str, tuple[str, ...] | None] = {
     "basic": ("axis_controller", "position_reader", "focus_controller", "usb_gateway"),
     "lab": ("axis_controller", "position_reader", "tachometer", "display", "usb_gateway"),
@@ -209,7 +212,8 @@ NETWORK_NAMES: tuple[str, ...] = tuple(NETWORKS)
 
 def network_boards(network: str | list | tuple) -> tuple[str, ...]:
     """Board names of ``network`` in node order: a name of :data:`NETWORKS` or a list of board
-    instance names (each once).
+    instance names (each once; the host's node, kind :data:`HOST_NODE_KIND`, is added when
+    registered: the PC is always on the bus).
 
     Raises
     ------
@@ -230,7 +234,9 @@ def network_boards(network: str | list | tuple) -> tuple[str, ...]:
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
         raise ValueError(f"board named more than once: {', '.join(dup)}")
-    return tuple(n for n in BOARD_NAMES if n in names)
+    # the host's own node (the USB-HID gateway, once registered) is on every network
+    host = {n for n, (s, _) in BOARDS.items() if s.kind == HOST_NODE_KIND}
+    return tuple(n for n in BOARD_NAMES if n in names or n in host)
 
 
 def network_nodes(network: str | list | tuple) -> tuple[int, ...]:
