@@ -21,7 +21,7 @@ import can
 from bus import protocol as P
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_HOST, Scheduler
-from boards.registry import NODE_NAMES, REGISTRY, nodes_of_kind
+from boards.registry import NODE_NAMES, REGISTRY, network_nodes, nodes_of_kind
 from bus.units import ARCSEC_PER_REV, TICK_US, duty_to_q15, q15_to_duty
 
 __all__ = ["HostClient", "Health", "AxisState", "NODE_NAMES", "AXIS_NODES"]
@@ -146,7 +146,8 @@ class HostClient:
     scheduler : Scheduler
         The simulated clock.
     expected_nodes : tuple of int
-        Nodes that must answer the power-on health check.
+        Nodes that must answer the power-on health check (default: the CANopen boards of the
+        ``basic`` network; :func:`host.network.build_network` passes the scenario network's).
     preset_rates_arcsec_s : dict
         Firmware preset rates keyed by ``(mode name, axis)``, to report setpoints.
     open_loop_duty : callable(rate_arcsec_s, axis) -> float
@@ -164,7 +165,7 @@ class HostClient:
 
     bus: can.BusABC
     scheduler: Scheduler
-    expected_nodes: tuple = tuple(NODE_NAMES)
+    expected_nodes: tuple = network_nodes("basic")
     preset_rates_arcsec_s: dict = field(default_factory=dict)
     open_loop_duty: Callable[[float, str], float] | None = None
     adc_to_current_a: Callable[[int], float] = lambda c: c * (5.0 / 1023) / 0.1
