@@ -148,3 +148,20 @@ def test_sensor_log_has_the_maintenance_columns(full_run):
         assert abs(float(r["ra_gear_reduction_a"]) - 360.4886) < 0.5
         assert abs(float(r["dec_motor_b_speed_rad_s"]) - 12.583) < 0.2
     assert any(math.isfinite(float(r["ra_aux_minus_main_arcsec"])) for r in rows)
+
+
+def test_lab_network_runs_with_the_four_tachometers(tmp_path):
+    """The lab network (the shipped scenario's network, shortened) builds the paper's lab kinds,
+    every one answers the health check, and the report's maintenance section has the four motors
+    and no auxiliary encoder."""
+    from host.scenario import load_scenario
+    shipped = load_scenario(__import__("pathlib").Path(__file__).resolve().parents[1] / "scenarios" / "lab-slew-track.yaml")
+    assert shipped.network == "lab"
+    sc = _sc("network: lab\nsegments:\n  - {name: s, axis: both, mode: slew, duration_s: 1.5, settle_s: 1}\n", tmp_path)
+    rep = run_scenario(sc, tmp_path / "out", plots=False).report
+    assert list(rep["nodes"]) == list(R.NETWORKS["lab"]) == list(rep["boards"])
+    assert all(b["state"] == "OPERATIONAL" for b in rep["boards"].values())
+    assert list(rep["maintenance"]["motors"]) == ["ra_a", "ra_b", "dec_a", "dec_b"]
+    assert rep["maintenance"]["aux_minus_main_arcsec"] == {}
+    header = (tmp_path / "out" / "sensor.log").read_text().splitlines()[1].split()
+    assert "dec_gear_reduction_b" in header and not any("aux" in c for c in header)

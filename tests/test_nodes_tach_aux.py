@@ -252,3 +252,24 @@ def test_tach_counts_follow_the_motor_shaft():
     assert p.tach_counts("b") == math.floor(-3.3 * 4000 / (2 * math.pi))
     with pytest.raises(ValueError):
         p.tach_counts("c")
+
+
+def test_aux_error_model_is_overridable_from_a_scenario(tmp_path):
+    """A scenario's plant.overrides set the A25S error terms (here all zero: the exact floor)
+    and the tachometer resolution the firmware is built with."""
+    from host.network import build_network
+    from host.scenario import parse_scenario
+    keys = ("once_per_rev_arcsec", "twice_per_rev_arcsec", "noise_arcsec")
+    ov = "".join(f"    axes.ra.aux_encoder.{k}: 0.0\n" for k in keys) + "    axes.dec.tachometer.counts_per_rev: 2048\n"
+    sc = parse_scenario("name: o\nnetwork: full\nplant:\n  overrides:\n" + ov +
+                        "segments:\n  - {name: a, mode: stop, duration_s: 1}\n", str(tmp_path / "s.yaml"))
+    tel = build_network(sc)
+    try:
+        p = tel.plants["ra"]
+        for th in (0.1, -1.3, 2.9):
+            p.axis_angle_rad = th
+            assert p.aux_encoder_word() == math.floor(((th * RED) % (2 * math.pi)) / (2 * math.pi) * WORD) % WORD
+        assert tel.boards["dec-tach-1"].counts_per_rev == 2048 and tel.boards["ra-tach-1"].counts_per_rev == 4000
+        assert tel.client.tach_counts_per_rev[int(P.NodeId.TACH_DEC_2)] == 2048
+    finally:
+        tel.close()
