@@ -588,6 +588,48 @@ class StepDir:
         self.set_power("on")
 
 
+# -- issue 12: synchronous serial (SSI) read of an absolute encoder -----------------------------
+class SsiMaster:
+    """Synchronous serial interface (SSI) master reading a single-turn absolute encoder word.
+
+    The PIC's synchronous serial port clocks ``bits`` data bits out of the encoder (MSB first,
+    binary). Only what the firmware uses is modelled: one read returns the word; no clock-level
+    timing, no Gray code, no parity (the Gurley A25S's interface options are not given in the
+    paper; assumed binary SSI).
+
+    Parameters
+    ----------
+    read_word : callable
+        Port returning the encoder's word, 0 .. 2**bits − 1.
+    bits : int
+        Word width (17 for the A25S, paper §3.2).
+
+    Raises
+    ------
+    ValueError
+        From :meth:`read` never: a word outside the width is masked, as the shift register would.
+    """
+
+    def __init__(self, read_word: Callable[[], int], bits: int) -> None:
+        self.read_word = read_word
+        self.bits = int(bits)
+        self._mask = (1 << self.bits) - 1
+        self.reads = 0
+
+    def read(self) -> int:
+        """One SSI transfer: the encoder word."""
+        self.reads += 1
+        return int(self.read_word()) & self._mask
+
+    def reset(self) -> None:
+        """Power-on: the read counter cleared."""
+        self.reads = 0
+
+
+__all__.append("SsiMaster")
+# -- end issue 12 ---------------------------------------------------------------------------------
+
+
 # Background polling priority used by boards whose bus has no receive interrupt.
 POLL_PRIORITY = PRIO_BACKGROUND
 

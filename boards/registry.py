@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from boards.aux_encoder import AuxEncoder
 from boards.axis_controller import AxisController
 from boards.display import DisplayUnit
 from boards.dome import DomeController
@@ -27,12 +28,14 @@ from boards.firmware_base import Board
 from boards.focus_controller import FocusController
 from boards.position_reader import PositionReader
 from boards.weather import WeatherStation
+from boards.tachometer import Tachometer
 from bus import protocol as P
 from bus.eds.objects import KINDS as EDS_KINDS
 
 __all__ = ["BoardInstance", "BoardSpec", "REGISTRY", "BOARDS", "BOARD_NAMES", "NODE_NAMES",
            "DEFAULT_BOARD_NAMES",
-           "board", "board_of_node", "nodes_of_kind"]
+           "board", "board_of_node", "nodes_of_kind", "NETWORK_KINDS", "NETWORKS", "NETWORK_NAMES",
+           "network_boards", "network_nodes"]
 
 
 @dataclass(frozen=True)
@@ -47,11 +50,14 @@ class BoardInstance:
         CAN node id (``bus.protocol.NodeId``).
     axis : str or None
         ``"ra"``/``"dec"`` for per-axis boards (selects the plant an axis board's ports reach).
+    motor : str or None
+        ``"a"``/``"b"`` for per-motor boards (the tachometers): which motor of the axis.
     """
 
     name: str
     node_id: int
     axis: str | None = None
+    motor: str | None = None
 
 
 @dataclass(frozen=True)
@@ -74,11 +80,6 @@ class BoardSpec:
         The boards of this kind, in node order.
     description : str
         The board (paper section).
-    default : bool
-        Built when nothing names the boards to build (today's five boards). False for the room
-        nodes of issue 12 (display, dome, weather), which a caller builds by name
-        (``build_network(..., boards=...)``). A stop-gap: the networks-by-name code
-        (``network: basic|lab|full``) replaces this flag.
     """
 
     kind: str
@@ -87,7 +88,6 @@ class BoardSpec:
     ports: tuple[str, ...]
     instances: tuple[BoardInstance, ...]
     description: str = ""
-    default: bool = True
 
     def sends(self, node_id: int) -> list[tuple[int, str]]:
         """``(cob_id, frame name)`` of every frame the board with ``node_id`` sends: its
@@ -136,20 +136,34 @@ REGISTRY: tuple[BoardSpec, ...] = (
         kind="display", firmware=DisplayUnit, device_type=P.DeviceType.DISPLAY,
         ports=("on_show",),
         instances=(BoardInstance("display", P.NodeId.DISPLAY, None),),
-        description="digital display unit: HA/DEC and rates from POSITION and AXIS_STATUS (§3.4)",
-        default=False),
+        description="digital display unit: HA/DEC and rates from POSITION and AXIS_STATUS (§3.4)"),
     BoardSpec(
         kind="dome", firmware=DomeController, device_type=P.DeviceType.DOME,
         ports=("read_azimuth_counts", "set_speed_reference"),
         instances=(BoardInstance("dome", P.NodeId.DOME, None),),
-        description="dome controller: slit azimuth follows the telescope (§5.2)", default=False),
+        description="dome controller: slit azimuth follows the telescope (§5.2)"),
     BoardSpec(
         kind="weather", firmware=WeatherStation, device_type=P.DeviceType.WEATHER,
         ports=("read_temperature_v", "read_humidity_v", "read_wind_v", "read_rain"),
         instances=(BoardInstance("weather", P.NodeId.WEATHER, None),),
-        description="weather station: temperature, humidity, wind, rain; high-wind and rain flags (§5.2)",
-        default=False),
+        description="weather station: temperature, humidity, wind, rain; high-wind and rain flags (§5.2)"),
     # -- end room nodes
+    # -- issue 12: motor tachometers and auxiliary encoders --
+    BoardSpec(
+        kind="tachometer", firmware=Tachometer, device_type=P.DeviceType.TACHOMETER,
+        ports=("read_motor_counts",),
+        instances=(BoardInstance("ra-tach-1", P.NodeId.TACH_RA_1, "ra", "a"),
+                   BoardInstance("ra-tach-2", P.NodeId.TACH_RA_2, "ra", "b"),
+                   BoardInstance("dec-tach-1", P.NodeId.TACH_DEC_1, "dec", "a"),
+                   BoardInstance("dec-tach-2", P.NodeId.TACH_DEC_2, "dec", "b")),
+        description="motor tachometer, CP-850 on each motor shaft, QEI (§3.2, §3.4, §5.2)"),
+    BoardSpec(
+        kind="aux_encoder", firmware=AuxEncoder, device_type=P.DeviceType.AUX_ENCODER,
+        ports=("read_aux_word",),
+        instances=(BoardInstance("ra-aux", P.NodeId.AUX_RA, "ra"),
+                   BoardInstance("dec-aux", P.NodeId.AUX_DEC, "dec")),
+        description="auxiliary encoder, 17-bit A25S through 1:10.8, SSI (§3.2, §5.2)"),
+    # -- end issue 12 --
 )
 
 #: Every board by scenario name, in node order: name -> (spec, instance).
@@ -157,8 +171,6 @@ BOARDS: dict[str, tuple[BoardSpec, BoardInstance]] = dict(sorted(
     ((i.name, (s, i)) for s in REGISTRY for i in s.instances), key=lambda kv: int(kv[1][1].node_id)))
 #: Scenario board names in node order.
 BOARD_NAMES: tuple[str, ...] = tuple(BOARDS)
-#: Boards built when nothing names them (``BoardSpec.default``), in node order.
-DEFAULT_BOARD_NAMES: tuple[str, ...] = tuple(n for n, (s, _) in BOARDS.items() if s.default)
 #: Board name of each node id.
 NODE_NAMES: dict[int, str] = {int(i.node_id): name for name, (_, i) in BOARDS.items()}
 
@@ -186,6 +198,81 @@ def nodes_of_kind(kind: str) -> dict[str, int]:
     """``{axis or name: node id}`` of the boards of ``kind`` (``{"ra": 1, "dec": 2}``)."""
     spec = next(s for s in REGISTRY if s.kind == kind)
     return {(i.axis or i.name): int(i.node_id) for i in spec.instances}
+
+
+# -- networks by name (issue 12) ------------------------------------------------------------------
+#: Board kinds of each named network; a network is every registered instance of its kinds, in node
+#: order (so a kind registered on another branch joins the networks naming it once it is merged;
+#: ``full`` is every board of the registry).
+#:
+#: * ``basic``: today's five boards (2 axis controllers, 2 EnDat readers, focus) + the USB-HID
+#:   gateway (kind ``usb_gateway``, instance ``gateway``) when it is registered;
+#: * ``lab``: the paper's ten nodes tested in the lab (§3.4: "position and velocity measurements
+#:   for the two axes, velocity measurements for the four DC motors, digital display unit, along
+#:   with USB-to-CAN node"): 2 axis controllers, 2 readers, 4 tachometers, the display, the gateway;
+#: * ``full``: every board of the registry (Fig. 5's "over sixteen" once all kinds exist).
+#: Kind of the host's own node (the PC's USB-HID gateway, paper §3.4): on every network, an
+#: explicit list included.
+HOST_NODE_KIND = "usb_gateway"
+NETWORK_KINDS: dict[str, tuple[str, ...] | None] = {
+    "basic": ("axis_controller", "position_reader", "focus_controller", "usb_gateway"),
+    "lab": ("axis_controller", "position_reader", "tachometer", "display", "usb_gateway"),
+    "full": None,
+}
+
+
+def _network(kinds: tuple[str, ...] | None) -> tuple[str, ...]:
+    return tuple(name for name, (s, _) in BOARDS.items() if kinds is None or s.kind in kinds)
+
+
+#: Network name -> board instance names, in node order.
+NETWORKS: dict[str, tuple[str, ...]] = {name: _network(kinds) for name, kinds in NETWORK_KINDS.items()}
+#: Valid network names for a scenario's ``network:`` key.
+NETWORK_NAMES: tuple[str, ...] = tuple(NETWORKS)
+#: Boards built when nothing names them: the ``basic`` network (a scenario's default).
+DEFAULT_BOARD_NAMES: tuple[str, ...] = NETWORKS["basic"]
+
+
+def network_boards(network: str | list | tuple) -> tuple[str, ...]:
+    """Board names of ``network`` in node order: a name of :data:`NETWORKS` or a list of board
+    instance names (each once; the host's node, kind :data:`HOST_NODE_KIND`, is added when
+    registered: the PC is always on the bus).
+
+    Raises
+    ------
+    KeyError
+        Unknown network name or board name (the message lists the valid ones).
+    ValueError
+        A board named twice.
+    """
+    if isinstance(network, str):
+        try:
+            return NETWORKS[network]
+        except KeyError:
+            raise KeyError(f"unknown network {network!r}; valid: {', '.join(NETWORK_NAMES)} "
+                           f"or a list of board names") from None
+    names = list(network)
+    for n in names:
+        board(n)
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ValueError(f"board named more than once: {', '.join(dup)}")
+    # the host's own node (the USB-HID gateway, once registered) is on every network
+    host = {n for n, (s, _) in BOARDS.items() if s.kind == HOST_NODE_KIND}
+    return tuple(n for n in BOARD_NAMES if n in names or n in host)
+
+
+def network_nodes(network: str | list | tuple) -> tuple[int, ...]:
+    """Node ids of the CANopen boards of ``network`` (those that answer the host's SDO health
+    check and send heartbeats), in node order; the host's own node (the gateway) is not one.
+
+    Raises
+    ------
+    KeyError, ValueError
+        As :func:`network_boards`.
+    """
+    return tuple(int(BOARDS[n][1].node_id) for n in network_boards(network)
+                 if getattr(BOARDS[n][0].firmware, "CANOPEN_KIND", "") and BOARDS[n][1].node_id != P.NodeId.HOST)
 
 
 assert all(issubclass(s.firmware, Board) for s in REGISTRY)

@@ -62,11 +62,17 @@ class NodeId(IntEnum):
     RA_READER = 3      #: RA EnDat position reader, PIC18F4480
     DEC_READER = 4     #: DEC EnDat position reader
     FOCUS = 5          #: focus controller, PIC18F4431
-    # -- issue 12, room nodes (display, dome, weather) ------------------------------------------
+    # -- issue 12: motor tachometers and auxiliary encoders (paper §3.2, §3.4) --
+    TACH_RA_1 = 6      #: tachometer of RA motor A (CP-850 on the motor shaft)
+    TACH_RA_2 = 7      #: tachometer of RA motor B
+    TACH_DEC_1 = 8     #: tachometer of DEC motor A
+    TACH_DEC_2 = 9     #: tachometer of DEC motor B
+    AUX_RA = 0x0A      #: RA auxiliary encoder (Gurley A25S through 1:10.8)
+    AUX_DEC = 0x0B     #: DEC auxiliary encoder
+    # -- issue 12, room nodes (display, dome, weather) --
     DISPLAY = 0x0C     #: digital display unit (§3.4)
     DOME = 0x0D        #: dome controller (§5.2, tested in the lab on RS232)
     WEATHER = 0x0E     #: weather station (§5.2, tested in the lab on RS232)
-    # -- end room nodes -------------------------------------------------------------------------
     HOST = 0x10        #: USB-to-CAN host node, PIC18F4550
 
 
@@ -81,7 +87,12 @@ AXIS_NODES = (NodeId.RA_AXIS, NodeId.DEC_AXIS)
 READER_NODES = (NodeId.RA_READER, NodeId.DEC_READER)
 #: The room nodes of issue 12 (display unit, dome controller, weather station).
 ROOM_NODES = (NodeId.DISPLAY, NodeId.DOME, NodeId.WEATHER)
-BOARD_NODES = (NodeId.RA_AXIS, NodeId.DEC_AXIS, NodeId.RA_READER, NodeId.DEC_READER, NodeId.FOCUS) + ROOM_NODES
+TACH_NODES = (NodeId.TACH_RA_1, NodeId.TACH_RA_2, NodeId.TACH_DEC_1, NodeId.TACH_DEC_2)
+AUX_NODES = (NodeId.AUX_RA, NodeId.AUX_DEC)
+#: Every board node of the protocol (a network built from a scenario may use a subset:
+#: ``boards.registry.NETWORKS``).
+BOARD_NODES = (NodeId.RA_AXIS, NodeId.DEC_AXIS, NodeId.RA_READER, NodeId.DEC_READER, NodeId.FOCUS,
+               *TACH_NODES, *AUX_NODES, *ROOM_NODES)
 ALL_NODES = BOARD_NODES + (NodeId.HOST,)
 
 
@@ -91,9 +102,11 @@ class DeviceType(IntEnum):
     AXIS_CONTROLLER = 0x01
     POSITION_READER = 0x02
     FOCUS_CONTROLLER = 0x03
-    DISPLAY = 0x06           #: issue 12: digital display unit
-    DOME = 0x07              #: issue 12: dome controller
-    WEATHER = 0x08           #: issue 12: weather station
+    TACHOMETER = 0x04      #: issue 12: motor tachometer (CP-850)
+    AUX_ENCODER = 0x05     #: issue 12: auxiliary absolute encoder (A25S)
+    DISPLAY = 0x06         #: issue 12: digital display unit
+    DOME = 0x07            #: issue 12: dome controller
+    WEATHER = 0x08         #: issue 12: weather station
     HOST = 0x10
 
 
@@ -107,6 +120,8 @@ DEVICE_TYPE_OF_NODE: dict[int, DeviceType] = {
     NodeId.DISPLAY: DeviceType.DISPLAY,
     NodeId.DOME: DeviceType.DOME,
     NodeId.WEATHER: DeviceType.WEATHER,
+    **{n: DeviceType.TACHOMETER for n in TACH_NODES},
+    **{n: DeviceType.AUX_ENCODER for n in AUX_NODES},
     NodeId.HOST: DeviceType.HOST,
 }
 
@@ -115,6 +130,8 @@ NODE_NAME: dict[int, str] = {
     NodeId.RA_AXIS: "RA_AXIS", NodeId.DEC_AXIS: "DEC_AXIS", NodeId.RA_READER: "RA_READER",
     NodeId.DEC_READER: "DEC_READER", NodeId.FOCUS: "FOCUS",
     NodeId.DISPLAY: "DISPLAY", NodeId.DOME: "DOME", NodeId.WEATHER: "WEATHER",
+    NodeId.TACH_RA_1: "TACH_RA_1", NodeId.TACH_RA_2: "TACH_RA_2", NodeId.TACH_DEC_1: "TACH_DEC_1",
+    NodeId.TACH_DEC_2: "TACH_DEC_2", NodeId.AUX_RA: "AUX_RA", NodeId.AUX_DEC: "AUX_DEC",
     NodeId.HOST: "HOST",
 }
 
@@ -140,6 +157,11 @@ LIMIT_REPEAT_US = 100_000
 DISPLAY_STATUS_PERIOD_US = 1_000_000
 DOME_STATUS_PERIOD_US = 250_000
 WEATHER_STATUS_PERIOD_US = 1_000_000
+#: issue 12: one TACH_STATUS per tachometer per 5 ms (the controllers' 5 ms tick, §3.3; the
+#: issue's bus-load figure assumes one frame per board per 5 ms).
+TACH_STATUS_PERIOD_US = 5_000
+#: issue 12: one AUX_POSITION per auxiliary encoder per 10 ms (as POSITION, §3.4's 10 ms samples).
+AUX_POSITION_PERIOD_US = 10_000
 
 
 # ------------------------------------------------------------------------------------------------
@@ -1230,6 +1252,105 @@ _add(FrameSpec("WEATHER_STATUS", FC_STATUS, (NodeId.WEATHER,), "node", WEATHER_S
           factor=0.01, dbc_unit="m/s", doc="wind speed (1 s sample)"),
 ), WeatherStatus, encode_weather_status, decode_weather_status, "weather station to host, every 1 s"))
 # -- end room nodes ----------------------------------------------------------------------------
+# -- issue 12: tachometer and auxiliary-encoder frames (one block: codecs, table rows) ---------
+
+#: Largest averaging window of the tachometer's speed, in 5 ms ticks (1 s; boards/tachometer.py).
+TACH_MAX_WINDOW_TICKS = 200
+
+
+class AuxFlags(IntFlag):
+    """``AUX_POSITION`` byte 1."""
+
+    TURNS_UNKNOWN = 1   #: turn count not yet seeded from the main encoder: within-turn only
+
+
+class TachStatus(NamedTuple):
+    window_ticks: int       #: 5 ms ticks the speed is averaged over (1..200)
+    counts: int             #: motor encoder count, low 16 bits of the QEI count (wraps)
+    speed_urad_s: int       #: motor shaft speed, micro-rad/s (i32, saturating)
+
+
+class AuxPosition(NamedTuple):
+    flags: int              #: AuxFlags bits
+    aux_counts: int         #: multi-turn encoder count: turns * 2**17 + 17-bit word (i32)
+
+
+def tach_status_cob_id(node: int) -> int:
+    """COB-ID of ``TACH_STATUS`` sent by tachometer ``node`` (6..9): 0x180 + node (its TPDO1)."""
+    return FC_STATUS + _check_node("TACH_STATUS", node, TACH_NODES)
+
+
+def aux_position_cob_id(node: int) -> int:
+    """COB-ID of ``AUX_POSITION`` sent by auxiliary encoder ``node`` (0x0A, 0x0B): 0x180 + node."""
+    return FC_STATUS + _check_node("AUX_POSITION", node, AUX_NODES)
+
+
+_S_TACH_STATUS = struct.Struct("<BBHi")
+_DT_TACH = DeviceType.TACHOMETER
+_DT_AUX = DeviceType.AUX_ENCODER
+
+
+def encode_tach_status(window_ticks: int, counts: int, speed_urad_s: int) -> bytes:
+    """Encode ``TACH_STATUS`` (0x180 + tachometer node): averaging window in 5 ms ticks
+    (1..200, EncodeError otherwise), motor encoder count u16 (wraps), speed µrad/s i32
+    (saturates)."""
+    f = "TACH_STATUS"
+    try:
+        if not 1 <= window_ticks <= TACH_MAX_WINDOW_TICKS:
+            raise EncodeError(f, "window_ticks", f"1..{TACH_MAX_WINDOW_TICKS}", window_ticks)
+        return _S_TACH_STATUS.pack(_DT_TACH, window_ticks, counts & 0xFFFF,
+                                   _clamp(speed_urad_s, I32_MIN, I32_MAX))
+    except (struct.error, TypeError) as exc:
+        raise _not_int(f, exc) from None
+
+
+def decode_tach_status(data) -> TachStatus:
+    """Decode ``TACH_STATUS``; raises MalformedFrame."""
+    dt, window, counts, speed = _unpack(_S_TACH_STATUS, data, "TACH_STATUS", _DT_TACH)
+    if not 1 <= window <= TACH_MAX_WINDOW_TICKS:
+        raise MalformedFrame("TACH_STATUS", "window_ticks", f"1..{TACH_MAX_WINDOW_TICKS}", window)
+    return TachStatus(window, counts, speed)
+
+
+_S_AUX_POSITION = struct.Struct("<BB2xi")
+
+
+def encode_aux_position(flags: int, aux_counts: int) -> bytes:
+    """Encode ``AUX_POSITION`` (0x180 + auxiliary-encoder node): AuxFlags, multi-turn count i32
+    (saturates)."""
+    f = "AUX_POSITION"
+    try:
+        _flags(f, "flags", flags, 0x01)
+        return _S_AUX_POSITION.pack(_DT_AUX, flags, _clamp(aux_counts, I32_MIN, I32_MAX))
+    except (struct.error, TypeError) as exc:
+        raise _not_int(f, exc) from None
+
+
+def decode_aux_position(data) -> AuxPosition:
+    """Decode ``AUX_POSITION``; raises MalformedFrame."""
+    dt, flags, counts = _unpack(_S_AUX_POSITION, data, "AUX_POSITION", _DT_AUX)
+    return AuxPosition(flags, counts)
+
+
+_add(FrameSpec("TACH_STATUS", FC_STATUS, TACH_NODES, "node", TACH_STATUS_PERIOD_US, (
+    Field("window_ticks", 1, 8, False, 1, TACH_MAX_WINDOW_TICKS, "id", unit="5 ms ticks",
+          dbc_unit="ticks", doc="ticks the speed is averaged over (grows to 200 at low speed)"),
+    Field("counts", 2, 16, False, 0, 0xFFFF, "wrap", unit="counts", dbc_unit="counts",
+          doc="motor encoder (CP-850), low 16 bits of the QEI count"),
+    Field("speed_urad_s", 4, 32, True, I32_MIN, I32_MAX, "clamp", unit="micro-rad/s",
+          dbc_name="motor_speed", factor=1e-6, dbc_unit="rad/s",
+          doc="motor shaft speed (0 with window 200: no count in 1 s)"),
+), TachStatus, encode_tach_status, decode_tach_status,
+    "motor tachometer to host, every 5 ms (paper 3.2 CP-850, 5.2 maintenance console)"))
+
+_add(FrameSpec("AUX_POSITION", FC_STATUS, AUX_NODES, "node", AUX_POSITION_PERIOD_US, (
+    Field("flags", 1, 8, False, 0, 1, "flags", flag_names=("turns_unknown",)),
+    Field("aux_counts", 4, 32, True, I32_MIN, I32_MAX, "clamp", unit="counts", dbc_unit="counts",
+          doc="multi-turn count turns * 2**17 + word; axis angle = counts * 360 deg / (2**17 * 10.8)"),
+), AuxPosition, encode_aux_position, decode_aux_position,
+    "auxiliary encoder to host, every 10 ms (paper 3.2 A25S through 1:10.8, 5.2 cross-check)"))
+
+# -- end issue 12 tachometer/auxiliary-encoder block -----------------------------------------------
 
 #: Per-command DBC signal for ``AXIS_COMMAND.value`` (the DBC multiplexes it by ``cmd``):
 #: command -> (signal name, factor, unit).
@@ -1258,6 +1379,8 @@ def _message_name(spec: FrameSpec, node) -> str:
         return spec.name
     if spec.nodes in (AXIS_NODES, READER_NODES):   # RA / DEC is unambiguous here
         return f"{spec.name}_{'RA' if node in (NodeId.RA_AXIS, NodeId.RA_READER) else 'DEC'}"
+    if spec.nodes in (TACH_NODES, AUX_NODES):      # TACH_STATUS_RA_1, AUX_POSITION_DEC
+        return f"{spec.name}_{NODE_NAME[node].split('_', 1)[1]}"
     return f"{spec.name}_{NODE_NAME[node]}"
 
 
@@ -1362,6 +1485,7 @@ def load_dbc():
 # ------------------------------------------------------------------------------------------------
 
 _DBC_NODES = ("HOST", "RA_AXIS", "DEC_AXIS", "RA_READER", "DEC_READER", "FOCUS",
+              "TACH_RA_1", "TACH_RA_2", "TACH_DEC_1", "TACH_DEC_2", "AUX_RA", "AUX_DEC",
               "DISPLAY", "DOME", "WEATHER")
 
 
@@ -1379,6 +1503,8 @@ def _receivers(spec: FrameSpec, node) -> str:
         return NODE_NAME[node]
     if spec.name == "LIMIT":
         return NODE_NAME[NodeId.RA_AXIS if node == NodeId.RA_READER else NodeId.DEC_AXIS]
+    if spec.name == "POSITION":      # the host, and the axis's auxiliary encoder (turn count)
+        return "HOST," + NODE_NAME[NodeId.AUX_RA if node == NodeId.RA_READER else NodeId.AUX_DEC]
     if spec.name == "HEARTBEAT" and node == NodeId.HOST:
         return ",".join(NODE_NAME[n] for n in BOARD_NODES)     # the host watchdog (0x1016)
     if spec.name == "POSITION":       # issue 12: the display and the dome consume it too

@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
             f"plant preload {session.tel.params.axes['ra'].friction.preload}, "
             f"{len(scenario.faults)} fault(s) scheduled")
         say(f"channel {chan} (socketcan), CAN 2.0A 11-bit ids, CANopen (boards boot PRE-OPERATIONAL: send NMT start); our host node 0x10 only listens")
-        for b in served_interface():
+        for b in served_interface(scenario.network):
             sends = " ".join(f"{c:03X}" for c, _ in b["sends"])
             listens = " ".join(f"{c:03X}" for c, _ in b["listens"])
             say(f"  node {b['node']} {b['board']:<10} sends {sends:<24} listens {listens}")

@@ -29,14 +29,19 @@ import can
 from bus import protocol as P
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_HOST, Scheduler
-from boards.registry import BOARDS, DEFAULT_BOARD_NAMES, NODE_NAMES, REGISTRY, nodes_of_kind
-from bus.units import TICK_US, duty_to_q15, q15_to_duty
+from boards.registry import NODE_NAMES, REGISTRY, network_nodes, nodes_of_kind
+from bus.units import ARCSEC_PER_REV, TICK_US, duty_to_q15, q15_to_duty
 
 __all__ = ["HostClient", "Health", "AxisState", "NODE_NAMES", "AXIS_NODES"]
 
 AXIS_NODES = nodes_of_kind("axis_controller")       #: {"ra": 1, "dec": 2}
 READER_NODES = nodes_of_kind("position_reader")    #: {"ra": 3, "dec": 4}
 _AXIS_OF_NODE = {node: axis for axis, node in AXIS_NODES.items()}
+#: issue 12: tachometer node -> (axis, motor); auxiliary-encoder node -> axis (from the registry)
+TACH_MOTOR_OF_NODE = {int(i.node_id): (i.axis, i.motor) for s in REGISTRY if s.kind == "tachometer"
+                      for i in s.instances}
+AUX_AXIS_OF_NODE = {int(i.node_id): i.axis for s in REGISTRY if s.kind == "aux_encoder" for i in s.instances}
+_READER_AXIS = {node: axis for axis, node in READER_NODES.items()}
 #: EDS (board kind) of each node: what the host's SDO client reads it with.
 _EDS_OF_NODE = {int(i.node_id): s.firmware.CANOPEN_KIND for s in REGISTRY for i in s.instances}
 
@@ -132,6 +137,38 @@ _DOME_CMD = {"stop": P.DomeCommand.STOP, "follow": P.DomeCommand.FOLLOW, "goto":
 
 
 @dataclass
+class TachState:
+    """Latest ``TACH_STATUS`` of one motor tachometer (issue 12)."""
+
+    counts: int = 0                 # unwrapped motor encoder count (from the 16-bit field)
+    speed_rad_s: float = 0.0        # the board's speed estimate [rad/s]
+    window_ticks: int = 0           # 5 ms ticks that estimate averages over
+    frames: int = 0
+    t_us: int = -1
+    _raw16: int | None = None
+
+
+@dataclass
+class AuxState:
+    """Latest ``AUX_POSITION`` of one auxiliary encoder, and its difference from the main encoder
+    (issue 12, §5.2)."""
+
+    aux_counts: int = 0
+    flags: int = 0
+    angle_arcsec: float = 0.0       # aux_counts x the board's resolution [arcsec]
+    #: aux − main [arcsec], main extrapolated to this frame's time (None: turns unknown or no
+    #: valid POSITION yet)
+    diff_arcsec: float | None = None
+    frames: int = 0
+    t_us: int = -1
+    # running statistics of diff_arcsec over every frame (the report)
+    n: int = 0
+    sum: float = 0.0
+    sumsq: float = 0.0
+    max_abs: float = 0.0
+
+
+@dataclass
 class Health:
     """Result of the power-on health check."""
 
@@ -143,6 +180,13 @@ class Health:
 
 #: SDO upload request of object 0x1000 sub 0 (CiA 301 initiate upload, cs 0x40): the health check.
 SDO_UPLOAD_1000 = bytes((0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0))
+_ARCSEC_PER_POS_COUNT = ARCSEC_PER_REV / P.POS_COUNTS_PER_REV
+
+
+def _signed_arcsec(pos_counts: int) -> float:
+    """A reader's 29-bit position as a signed axis angle [arcsec] (−180° .. 180°)."""
+    c = pos_counts - P.POS_COUNTS_PER_REV if pos_counts >= P.POS_COUNTS_PER_REV // 2 else pos_counts
+    return c * _ARCSEC_PER_POS_COUNT
 
 
 @dataclass
@@ -156,8 +200,8 @@ class HostClient:
     scheduler : Scheduler
         The simulated clock.
     expected_nodes : tuple of int
-        Nodes that must answer the power-on health check (default: the registry's default
-        boards; ``build_network`` passes the boards it built).
+        Nodes that must answer the power-on health check (default: the CANopen boards of the
+        ``basic`` network; :func:`host.network.build_network` passes the scenario network's).
     preset_rates_arcsec_s : dict
         Firmware preset rates keyed by ``(mode name, axis)``, to report setpoints.
     open_loop_duty : callable(rate_arcsec_s, axis) -> float
@@ -175,7 +219,7 @@ class HostClient:
 
     bus: can.BusABC
     scheduler: Scheduler
-    expected_nodes: tuple = tuple(int(BOARDS[n][1].node_id) for n in DEFAULT_BOARD_NAMES)
+    expected_nodes: tuple = network_nodes("basic")
     preset_rates_arcsec_s: dict = field(default_factory=dict)
     open_loop_duty: Callable[[float, str], float] | None = None
     adc_to_current_a: Callable[[int], float] = lambda c: c * (5.0 / 1023) / 0.1
@@ -204,6 +248,13 @@ class HostClient:
         self.weather_unsafe = False            # HIGH_WIND or RAIN seen and not yet cleared
         self.weather_stops = 0                 # times the weather stopped the telescope
         self.refused_commands = 0              # commands the host refused (weather)
+        # issue 12: motor tachometers and auxiliary encoders (maintenance consoles, §5.2)
+        self.tachs: dict[int, TachState] = {}
+        self.aux: dict[str, AuxState] = {}
+        self.tach_counts_per_rev: dict[int, int] = {}
+        self.aux_arcsec_per_count: dict[int, float] = {}
+        self._main_prev: dict[str, tuple[int, float]] = {}    # axis -> (t_us, arcsec) of the POSITION before
+        self.peak_current_a: dict[tuple[str, str], float] = {}   # (axis, motor) -> peak from AXIS_AUX
         self.heartbeats: dict[int, tuple[int, int]] = {}   # node -> (t_us, NMT state)
         self.sdo_answers: dict[int, int] = {}   # node -> time of its last SDO response [µs]
         self.emcy_active: dict[int, dict[int, int]] = {}   # node -> {error code: detail}
@@ -228,7 +279,7 @@ class HostClient:
             P.FocusStatus: self._on_FocusStatus, P.Heartbeat: self._on_Heartbeat, P.Emcy: self._on_Emcy,
             P.Limit: self._on_Limit,
             P.WeatherStatus: self._on_WeatherStatus, P.DomeStatus: self._on_DomeStatus,
-            P.DisplayStatus: self._on_DisplayStatus,
+            P.DisplayStatus: self._on_DisplayStatus, P.TachStatus: self._on_TachStatus, P.AuxPosition: self._on_AuxPosition,
         }
         if hasattr(self.bus, "set_rx_callback"):
             self.bus.set_rx_callback(self.poll)
@@ -296,14 +347,98 @@ class HostClient:
         st = self.axes[axis]
         st.current_a_a = self.adc_to_current_a(f.adc_a)
         st.current_b_a = self.adc_to_current_a(f.adc_b)
+        pk = self.peak_current_a
+        if st.current_a_a > pk.get((axis, "a"), 0.0):
+            pk[(axis, "a")] = st.current_a_a
+        if st.current_b_a > pk.get((axis, "b"), 0.0):
+            pk[(axis, "b")] = st.current_b_a
         st.rate_arcsec_s = f.qei_delta * self.arcsec_per_count[axis] / (TICK_US * 1e-6)
 
     def _on_Position(self, cob_id: int, f, now: int) -> None:
         node = P.node_of(cob_id)
         ps = self.positions["ra" if node == P.NODE_RA_READER else "dec"]
+        if ps.t_us >= 0 and ps.t_us != now:
+            self._main_prev[_READER_AXIS[node]] = (ps.t_us, ps.flags, _signed_arcsec(ps.pos_counts))
         if f.crc_errors != ps.crc_errors and ps.t_us >= 0:
             self._error(now, NODE_NAMES[node], "endat-crc", f"crc_errors {ps.crc_errors} -> {f.crc_errors}")
         ps.pos_counts, ps.flags, ps.crc_errors, ps.t_us = f.pos_counts, f.flags, f.crc_errors, now
+
+    # -- issue 12: tachometers and auxiliary encoders -----------------------------------------
+    def configure_maintenance(self, tach_counts_per_rev: dict, aux_arcsec_per_count: dict) -> None:
+        """Resolutions of the tachometers and auxiliary encoders on the network (node -> counts
+        per motor revolution / arcsec per count at the axis), read from the boards that run
+        (:func:`host.network.build_network`). Frames of other nodes are decoded but not scaled."""
+        self.tach_counts_per_rev = dict(tach_counts_per_rev)
+        self.aux_arcsec_per_count = dict(aux_arcsec_per_count)
+        self.tachs = {n: TachState() for n in self.tach_counts_per_rev}
+        self.aux = {AUX_AXIS_OF_NODE[n]: AuxState() for n in self.aux_arcsec_per_count}
+
+    def _on_TachStatus(self, cob_id: int, f, now: int) -> None:
+        node = P.node_of(cob_id)
+        st = self.tachs.get(node)
+        if st is None:
+            st = self.tachs[node] = TachState()
+        raw = f.counts
+        if st._raw16 is None:
+            st.counts = raw if raw < 0x8000 else raw - 0x10000
+        else:
+            d = (raw - st._raw16) & 0xFFFF
+            st.counts += d - 0x10000 if d >= 0x8000 else d
+        st._raw16 = raw
+        st.speed_rad_s = f.speed_urad_s * 1e-6
+        st.window_ticks = f.window_ticks
+        st.frames += 1
+        st.t_us = now
+
+    def _on_AuxPosition(self, cob_id: int, f, now: int) -> None:
+        node = P.node_of(cob_id)
+        axis = AUX_AXIS_OF_NODE[node]
+        st = self.aux.get(axis)
+        if st is None:
+            st = self.aux[axis] = AuxState()
+        st.aux_counts, st.flags, st.t_us = f.aux_counts, f.flags, now
+        st.frames += 1
+        res = self.aux_arcsec_per_count.get(node)
+        st.diff_arcsec = None
+        if res is None:
+            return
+        st.angle_arcsec = f.aux_counts * res
+        if f.flags & P.AuxFlags.TURNS_UNKNOWN:
+            return
+        main = self.main_arcsec(axis, now)
+        if main is None:
+            return
+        d = st.angle_arcsec - main[0]
+        st.diff_arcsec = d
+        if main[1] is None or abs(main[1]) > self.AUX_COMPARE_MAX_RATE_ARCSEC_S:
+            return                     # moving fast: the frames' sampling skew would dominate
+        st.n += 1
+        st.sum += d
+        st.sumsq += d * d
+        if abs(d) > st.max_abs:
+            st.max_abs = abs(d)
+
+    #: The auxiliary-vs-main statistics use only frames while the main encoder moves at most this
+    #: fast [arcsec/s]: frames carry no sampling time, and a skew of up to one 10 ms period
+    #: between the two boards' samples is then at most 1″ (assumed console practice: cross-check
+    #: at rest or tracking, not during a slew).
+    AUX_COMPARE_MAX_RATE_ARCSEC_S = 100.0
+
+    def main_arcsec(self, axis: str, t_us: int) -> tuple[float, float | None] | None:
+        """The main (EnDat) encoder's last valid signed axis angle [arcsec] and its rate [arcsec/s]
+        from its last two ``POSITION`` frames (None if unknown); None without a valid POSITION
+        (flags CRC_ERROR or INVALID clear) in the 100 ms before ``t_us``. Not extrapolated: the
+        boards sample on their own 10 ms ticks and the frames carry no sampling time."""
+        ps = self.positions[axis]
+        bad = int(P.PositionFlags.CRC_ERROR | P.PositionFlags.INVALID)
+        if ps.t_us < 0 or ps.flags & bad or t_us - ps.t_us > 100_000:
+            return None
+        a = _signed_arcsec(ps.pos_counts)
+        prev = self._main_prev.get(axis)
+        rate = None
+        if prev is not None and not prev[1] & bad and 0 < ps.t_us - prev[0] <= 100_000:
+            rate = (a - prev[2]) * 1e6 / (ps.t_us - prev[0])
+        return a, rate
 
     def _on_FocusStatus(self, cob_id: int, f, now: int) -> None:
         self.focus.pos_halfsteps, self.focus.lvdt_adc, self.focus.flags, self.focus.t_us = (

@@ -163,9 +163,12 @@ class HostLogs:
         Directory; created if missing.
     header : str
         One line written as a comment at the top of every log (scenario name, seed).
+    extra_sensor_columns : tuple of str
+        ``sensor.log`` columns after :data:`SENSOR_COLUMNS` (issue 12: a network with
+        tachometers or auxiliary encoders; none on ``basic``, whose log is unchanged).
     """
 
-    def __init__(self, out_dir: Path, header: str = ""):
+    def __init__(self, out_dir: Path, header: str = "", extra_sensor_columns: tuple = ()):
         out_dir.mkdir(parents=True, exist_ok=True)
         self.paths = {k: out_dir / v for k, v in LOG_FILES.items()}
         self._files: dict[str, LineFile] = {}
@@ -180,7 +183,10 @@ class HostLogs:
             f.write_line(f"# schmidt-fil {k} log; {header}")
         self._files["commands"].write_line("# t_s  target  command  detail")
         self._files["status"].write_line("# t_s  node  board  event  detail")
-        self._files["sensor"].write_line("# " + " ".join(SENSOR_COLUMNS))
+        #: the sensor.log columns: :data:`SENSOR_COLUMNS`, then the maintenance quantities of the
+        #: network's tachometers and auxiliary encoders (``host.maintenance.sensor_columns``)
+        self.sensor_columns = SENSOR_COLUMNS + tuple(extra_sensor_columns)
+        self._files["sensor"].write_line("# " + " ".join(self.sensor_columns))
         self._files["errors"].write_line("# t_s  source  error  detail")
         self.counts = {k: 0 for k in LOG_FILES}
 

@@ -48,9 +48,10 @@ import can
 import bus as _bus_pkg  # noqa: F401  (registers the schmidt-sim python-can interface)
 from boards.axis_controller import PRESET_RATES_ARCSEC_S, AxisMode
 from boards.peripherals import Adc
-from boards.registry import BOARD_NAMES, BOARDS, DEFAULT_BOARD_NAMES, BoardInstance
+from boards.registry import BOARD_NAMES, BOARDS, BoardInstance, network_boards
 from boards.tuning import GAINS_SOURCE, design_axis_gains
 from bus import protocol as P
+from bus import telemetry as _tlm
 from bus.network import CanNetwork
 from bus.scheduler import PRIO_PLANT, Scheduler
 from bus.serial_link import SerialLink
@@ -109,6 +110,7 @@ class Telescope:
     weather: WeatherModel | None = None
     display_log: DisplayLog | None = None
     _can_snapshot: dict = field(default_factory=dict, repr=False)   # CAN registers at close()
+    network_name: str = "basic"     #: the scenario's ``network`` (a name, or "custom" for a list)
 
     def advance_plants(self, now_us: int | None = None) -> None:
         """Advance every plant to ``now_us`` (default the scheduler's time)."""
@@ -317,6 +319,10 @@ PORTS: dict[str, Callable[[_Build, BoardInstance], Callable]] = {
     "read_humidity_v": lambda b, i: _advancing(b.weather, b.scheduler, b.weather.humidity_v),
     "read_wind_v": lambda b, i: _advancing(b.weather, b.scheduler, b.weather.wind_v),
     "read_rain": lambda b, i: _advancing(b.weather, b.scheduler, lambda w=b.weather: w.rain),
+    # issue 12: the CP-850 on motor a/b of the axis, the auxiliary encoder's 17-bit word
+    "read_motor_counts": lambda b, i: _advancing(b.plants[i.axis], b.scheduler,
+                                                 lambda p=b.plants[i.axis], m=i.motor: p.tach_counts(m)),
+    "read_aux_word": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, b.plants[i.axis].aux_encoder_word),
 }
 
 
@@ -362,6 +368,10 @@ SETTINGS: dict[str, Callable[[_Build, BoardInstance], dict]] = {
                              "stale_timeout_us": b.params.display.stale_timeout_us},
     "dome": _dome_settings,
     "weather": _weather_settings,
+    # issue 12: encoder resolutions from the parameter file (axes.<axis>.tachometer / .aux_encoder)
+    "tachometer": lambda b, i: {"counts_per_rev": b.params.axes[i.axis].tachometer.counts_per_rev},
+    "aux_encoder": lambda b, i: {"bits": b.params.axes[i.axis].aux_encoder.bits,
+                                 "reduction": b.params.axes[i.axis].aux_encoder.reduction},
 }
 
 
@@ -378,9 +388,9 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient,
         :class:`host.monitor.BusMonitor` (``schmidt-fil serve``: a passive monitor, so that a
         host program outside the emulator commands the boards).
     boards : iterable of str, optional
-        Registry names of the boards to build (built in node order); default
-        :data:`boards.registry.DEFAULT_BOARD_NAMES` (today's five). The host's health check
-        expects exactly these.
+        Registry names of the boards to build (built in node order) instead of the scenario's
+        ``network`` (``basic`` by default; :func:`boards.registry.network_boards`). The host's
+        health check expects exactly the CANopen boards built.
 
     Returns
     -------
@@ -395,11 +405,6 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient,
     KeyError
         An unknown board name (the message lists the valid ones).
     """
-    wanted = DEFAULT_BOARD_NAMES if boards is None else tuple(boards)
-    for name in wanted:
-        if name not in BOARDS:
-            raise KeyError(f"unknown board {name!r}; valid: {', '.join(BOARD_NAMES)}")
-    selected = {name: BOARDS[name] for name in BOARD_NAMES if name in wanted}
     params = resolve_parameters(scenario)
     sched = Scheduler()
     iface = scenario.bus.interface
@@ -412,7 +417,8 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient,
         buses.append(b)
         return b
 
-    plants = {axis: AxisPlant(params.axes[axis], name=axis) for axis in AXES}
+    # the scenario's seed seeds the plant's sensor noise (the auxiliary encoder, issue 12)
+    plants = {axis: AxisPlant(params.axes[axis], name=axis, seed=scenario.seed) for axis in AXES}
     focus_plant = FocusPlant(params.focus)
     dome_plant = DomePlant(params.dome)
     ws = scenario.weather
@@ -428,6 +434,14 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient,
 
     sched.call_every(PLANT_PERIOD_US, plant_tick, start_us=0, priority=PRIO_PLANT, owner="plant")
 
+    # the boards of the scenario's network (boards.registry.NETWORKS; default basic), node order
+    chosen = network_boards(scenario.network if boards is None else list(boards))
+    network_name = scenario.network_name if boards is None else "custom"
+    # the host's health check expects every chosen CANopen board (not the host's own node)
+    expected = tuple(int(BOARDS[n][1].node_id) for n in chosen
+                     if getattr(BOARDS[n][0].firmware, "CANOPEN_KIND", "") and BOARDS[n][1].node_id != P.NodeId.HOST)
+    # (registry.network_nodes is the same rule on the registry's table; BOARDS here may be patched)
+
     # host first, so it hears the boards' boot heartbeats
     boards: dict = {}
     adc = Adc({})
@@ -435,8 +449,7 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient,
     preset = {(AxisMode.NAMES[m].lower(), axis): rates[i] for m, rates in PRESET_RATES_ARCSEC_S.items()
               for i, axis in enumerate(AXES)}
     client = host_cls(
-        bus=new_bus(), scheduler=sched, preset_rates_arcsec_s=preset,
-        expected_nodes=tuple(int(inst.node_id) for _, inst in selected.values()),
+        bus=new_bus(), scheduler=sched, preset_rates_arcsec_s=preset, expected_nodes=expected,
         # the duty-speed map with the counter fraction the axis firmware runs
         open_loop_duty=lambda rate, axis: open_loop_duty(rate, params.axes[axis],
                                                          boards[_AXIS_BOARD[axis]].counter_fraction),
@@ -446,16 +459,24 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient,
     # RS232 telemetry: one point-to-point link per board, the far ends on the host's hub
     rs = scenario.rs232
     hub = Rs232Hub(sched, rs.baud) if rs.enabled else None
-    links = {name: SerialLink(sched, baud=rs.baud, name=f"rs232-{name}") for name, (spec, _) in selected.items()
-             if int(spec.device_type) in SAMPLE_FIELDS} if hub else {}
+    # §3.4: the RS232 set-up had the PI, position and focus boards (the kinds with telemetry samples)
+    rs_names = [n for n in chosen if int(BOARDS[n][0].device_type) in _tlm.SAMPLE_FIELDS]
+    links = {name: SerialLink(sched, baud=rs.baud, name=f"rs232-{name}") for name in rs_names} if hub else {}
 
     build = _Build(scenario, sched, params, plants, focus_plant, {}, dome_plant, weather, display_log)
-    for name, (spec, inst) in selected.items():
+    for name in chosen:
+        spec, inst = BOARDS[name]
         kwargs = {port: PORTS[port](build, inst) for port in spec.ports}
         kwargs.update(SETTINGS.get(spec.kind, lambda b, i: {})(build, inst))
         boards[name] = spec.firmware(sched, new_bus(), inst.node_id, name=name,
                                      serial_port=links[name].a if name in links else None, **kwargs)
     client.arcsec_per_count = {axis: boards[_AXIS_BOARD[axis]].arcsec_per_count for axis in AXES}
+    # issue 12: resolutions of the tachometers and auxiliary encoders that run (maintenance quantities)
+    client.configure_maintenance(
+        tach_counts_per_rev={int(b.node_id): b.counts_per_rev for n, b in boards.items()
+                             if BOARDS[n][0].kind == "tachometer"},
+        aux_arcsec_per_count={int(b.node_id): b.arcsec_per_count for n, b in boards.items()
+                              if BOARDS[n][0].kind == "aux_encoder"})
     if hub is not None:
         for name in links:
             hub.add_port(links[name].b, name, boards[name].node_id)
@@ -464,4 +485,5 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient,
     return Telescope(scenario=scenario, scheduler=sched, params=params, network=network, plants=plants,
                      focus_plant=focus_plant, boards=boards, client=client, gains=build.gains, buses=buses,
                      hub=hub, serial_links=links, dome_plant=dome_plant, weather=weather,
-                     display_log=display_log)
+                     display_log=display_log,
+                     network_name=network_name)

@@ -286,7 +286,11 @@ def _markdown(r: dict) -> str:
     if r.get("bus_stats"):
         b = r["bus_stats"]
         lines += ["## Bus", "", f"- frames: {b.get('frames')}, load {b.get('load_pct', 0):.2f} % (peak {b.get('peak_load_pct', 0):.2f} % over 100 ms)", ""]
+    if r.get("maintenance"):
+        lines += _maintenance(r)
     if r.get("boards"):
+        if r.get("network"):
+            lines += [f"Network `{r['network']}`: " + ", ".join(f"{n} (0x{v:02X})" for n, v in r["nodes"].items()), ""]
         lines += ["## Boards", "", "| board | malformed frames | CRC errors | state |", "|---|---:|---:|---|"]
         for name, b in r["boards"].items():
             lines.append(f"| {name} | {b.get('malformed_frames', 0)} | {b.get('crc_errors', '–')} | {b.get('state', '')} |")
@@ -312,6 +316,35 @@ def _markdown(r: dict) -> str:
     if r.get("errors"):
         lines += ["## Errors", ""] + [f"- {e}" for e in r["errors"]] + [""]
     return "\n".join(lines)
+
+
+def _maintenance(r: dict) -> list[str]:
+    """report.md section: the §5.2 maintenance quantities (host/maintenance.py), issue 12."""
+    m = r["maintenance"]
+    out = ["## Maintenance (paper §5.2)", "",
+           f"From the frames the host received (host/maintenance.py). Nominal gear reduction: "
+           + ", ".join(f"{a} {v}" for a, v in m["nominal_gear_reduction"].items()) + "."]
+    if m["motors"]:
+        out += ["", "| motor | node | TACH_STATUS frames | counts/rev | last speed (rad/s) | peak current (A) |",
+                "|---|---:|---:|---:|---:|---:|"]
+        for k, v in m["motors"].items():
+            out.append(f"| {k} | 0x{v['node']:02X} | {v['frames']} | {v['counts_per_rev']} | "
+                       f"{v['last_speed_rad_s']} | {v['peak_current_a']} |")
+        rows = [s for s in r["segments"] if s.get("gear_reduction")]
+        if rows:
+            keys = list(m["motors"])
+            out += ["", "Gear reduction (motor turns / axis turns over the settled segment; – = too little motion):", "",
+                    "| segment | " + " | ".join(keys) + " |", "|---|" + "---:|" * len(keys)]
+            for s in rows:
+                out.append(f"| {s['name']} | " + " | ".join(
+                    "–" if s["gear_reduction"].get(k) is None else f"{s['gear_reduction'][k]:.4f}" for k in keys) + " |")
+    if m["aux_minus_main_arcsec"]:
+        out += ["", "| axis | AUX_POSITION frames | compared | mean aux − main (″) | rms (″) | max abs (″) |",
+                "|---|---:|---:|---:|---:|---:|"]
+        for a, v in m["aux_minus_main_arcsec"].items():
+            out.append(f"| {a} | {v['frames']} | {v['compared']} | {v.get('mean_arcsec', '–')} | "
+                       f"{v.get('rms_arcsec', '–')} | {v.get('max_abs_arcsec', '–')} |")
+    return out + [""]
 
 
 def _fine_table(r: dict) -> list[str]:

@@ -181,6 +181,9 @@ def run_scenario(
                 "t1_s": span["t1_us"] / 1e6,
                 "settle_s": seg.settle_s,
             }
+            if session.maintenance is not None and session.maintenance.tachs:   # issue 12, §5.2
+                entry["gear_reduction"] = session.maintenance.segment_reduction(
+                    span["t0_us"] + int(round(seg.settle_s * 1e6)), span["t1_us"], (axis,))
             if sp != 0.0 and seg.mode != "stop":
                 entry.update(segment_metrics(traces[axis], entry["t0_s"] + seg.settle_s, entry["t1_s"], sp,
                                              window_ms, rated))
@@ -193,6 +196,8 @@ def run_scenario(
         "description": scenario.description,
         "seed": scenario.seed,
         "bus": scenario.bus.model_dump(),
+        "network": tel.network_name,                  # issue 12: the boards that ran
+        "nodes": {name: b.node_id for name, b in tel.boards.items()},
         "simulated_s": sched.now_us / 1e6,
         "wall_s": round(wall_s, 3),
         "method": MEASUREMENT_METHOD,
@@ -211,6 +216,9 @@ def run_scenario(
         "errors": session.errors + client.error_lines(),
         "realtime": session.clock_stats(),
     }
+    if session.maintenance is not None:                # issue 12: §5.2 maintenance quantities
+        report["maintenance"] = session.maintenance.summary(
+            {axis: round(p.params.gear.ratio, 4) for axis, p in tel.plants.items()})
     files: list[Path] = []
     if out_dir is not None:
         files += session.files()

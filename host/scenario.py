@@ -31,7 +31,7 @@ import yaml
 from pydantic import AfterValidator, BaseModel, PrivateAttr, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from boards.endat import FRAME_BITS as ENDAT_FRAME_BITS
-from boards.registry import BOARD_NAMES
+from boards.registry import BOARD_NAMES, BOARDS, network_boards
 from boards.safety import DEFAULT_SAFETY, SafetyLimits
 from bus.errors import ConfigurationError
 from bus.units import check_counter_fraction
@@ -280,6 +280,9 @@ class Scenario(_Strict):
     name: str
     description: str = ""
     seed: int = 0
+    #: issue 12: which boards the network has: a name of ``boards.registry.NETWORKS``
+    #: (``basic`` = today's five boards + gateway, ``lab``, ``full``) or a list of board names
+    network: str | list[str] = "basic"
     bus: BusConfig = Field(default_factory=BusConfig)
     plant: PlantConfig = Field(default_factory=PlantConfig)
     controller: ControllerConfig = Field(default_factory=ControllerConfig)
@@ -317,9 +320,38 @@ class Scenario(_Strict):
             seen.add(s.name)
         return segs
 
+    @field_validator("network")
+    @classmethod
+    def _check_network(cls, net):
+        try:
+            names = network_boards(net)
+        except (KeyError, ValueError) as exc:
+            raise ValueError(str(exc).strip("'\"")) from None
+        axes = [n for n, (s, _) in BOARDS.items() if s.kind == "axis_controller"]
+        missing = [a for a in axes if a not in names]
+        if missing:
+            raise ValueError(f"the network must hold the axis controllers (the host commands them); "
+                             f"missing {', '.join(missing)}")
+        return net
+
+    @property
+    def network_name(self) -> str:
+        """The network's name, or ``"custom"`` for an explicit list of boards."""
+        return self.network if isinstance(self.network, str) else "custom"
+
+    @property
+    def board_names(self) -> tuple[str, ...]:
+        """The boards of :attr:`network`, in node order."""
+        return network_boards(self.network)
+
     @model_validator(mode="after")
     def _check_faults(self) -> "Scenario":
         total = self.duration_s
+        chosen = self.board_names
+        for i, f in enumerate(self.faults):
+            if f.board is not None and f.board not in chosen:
+                raise ValueError(f"faults[{i}].board {f.board!r} is not on the network "
+                                 f"{self.network_name!r} ({', '.join(chosen)})")
         if total > MAX_DURATION_S:
             raise ValueError(f"the segments last {total:.0f} s; at most {MAX_DURATION_S:.0f} s per run")
         for i, e in enumerate(self.weather.events):

@@ -23,7 +23,7 @@ from typing import Callable
 
 import can
 
-from boards.registry import BOARDS, DEFAULT_BOARD_NAMES
+from boards.registry import BOARDS, network_boards
 from bus import protocol as P
 from bus.errors import BusError, SimulationError
 from bus.units import ARCSEC_PER_RAD
@@ -63,11 +63,10 @@ def serve_scenario(scenario: Scenario, channel: str | None = None) -> Scenario:
     return scenario.model_copy(update={"bus": bus})
 
 
-def served_interface(boards=None) -> list[dict]:
+def served_interface(network="basic") -> list[dict]:
     """What the emulated boards offer on the bus, per board in node order: node id, the COB-IDs
-    it sends and the COB-IDs a host sends to it (from the board registry, :mod:`boards.registry`).
-    ``boards``: registry names (default: the boards ``serve`` builds,
-    :data:`boards.registry.DEFAULT_BOARD_NAMES`).
+    it sends and the COB-IDs a host sends to it (from the board registry, :mod:`boards.registry`),
+    for the boards of ``network`` (a scenario's ``network``: name or list of boards).
 
     Returns
     -------
@@ -75,8 +74,8 @@ def served_interface(boards=None) -> list[dict]:
         ``{"board", "node", "sends": [(cob_id, name), ...], "listens": [(cob_id, name), ...]}``.
     """
     return [{"board": name, "node": int(inst.node_id), "sends": spec.sends(inst.node_id),
-             "listens": spec.accepts(inst.node_id)} for name, (spec, inst) in BOARDS.items()
-            if name in (DEFAULT_BOARD_NAMES if boards is None else boards)]
+             "listens": spec.accepts(inst.node_id)}
+            for name, (spec, inst) in ((n, BOARDS[n]) for n in network_boards(network))]
 
 
 class ServeSession(Session):
@@ -238,8 +237,14 @@ class ServeSession(Session):
         for axis in truth:
             plant[axis]["truth"] = truth[axis]
         errors = self.errors + mon.error_lines()
+        extra = {}
+        if self.maintenance is not None:            # issue 12: §5.2 maintenance quantities
+            extra["maintenance"] = self.maintenance.summary(
+                {axis: round(p.params.gear.ratio, 4) for axis, p in tel.plants.items()})
         return {
             "command": "serve",
+            "network": tel.network_name,
+            "nodes": {name: b.node_id for name, b in tel.boards.items()},
             "scenario": self.scenario.name,
             "scenario_file": self.scenario.source_path,
             "seed": self.scenario.seed,
@@ -260,6 +265,7 @@ class ServeSession(Session):
             "realtime": self.clock_stats(),
             "errors_total": len(errors),
             "errors": errors[:REPORT_MAX_ERRORS],
+            **extra,
         }
 
 

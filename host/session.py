@@ -20,6 +20,7 @@ from bus.errors import SimulationError
 from bus.scheduler import PRIO_HOST
 from host.client import HostClient
 from host.logs import CANDUMP_LOG, DISPLAY_LOG, CandumpWriter, HostLogs
+from host.maintenance import Maintenance, sensor_columns
 from host.realtime import clock_for
 from host.rs232 import TELEMETRY_LOG
 from host.scenario import Scenario
@@ -103,6 +104,9 @@ class Session:
             raise
         self.client = self.tel.client
         self.scheduler = self.tel.scheduler
+        #: issue 12: the §5.2 maintenance quantities (networks with tachometers / aux encoders)
+        self.maintenance = (Maintenance(self.client, scenario.board_names)
+                            if sensor_columns(scenario.board_names) else None)
         self.client.logs = self.logs
         if self.candump is not None:
             if self.tel.network is not None:   # sim: every frame on the wire
@@ -119,7 +123,8 @@ class Session:
 
     def _open_logs(self, header: str) -> None:
         if self.out_dir is not None:
-            self.logs = HostLogs(self.out_dir, header=header)
+            self.logs = HostLogs(self.out_dir, header=header,
+                                 extra_sensor_columns=sensor_columns(self.scenario.board_names))
 
     # -- set-up in simulated time ------------------------------------------------------------
     def schedule_faults(self) -> None:
@@ -142,8 +147,9 @@ class Session:
         for hook in self._sample_hooks:
             hook(now_us)
         self.samples += 1
+        extra = self.maintenance.sample(now_us) if self.maintenance is not None else ()
         if self.logs is not None and self.samples % self._sensor_every == 0:
-            self.logs.sensor(now_us, sensor_row(self.client, self.client.setpoints))
+            self.logs.sensor(now_us, sensor_row(self.client, self.client.setpoints) + extra)
 
     # -- running -----------------------------------------------------------------------------
     def advance(self, t_us: int | None, should_stop: Callable[[], bool] | None = None,

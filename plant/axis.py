@@ -41,6 +41,7 @@ attributes.
 from __future__ import annotations
 
 import math
+import random
 
 from bus.units import ARCSEC_PER_RAD  # the one module of bus that plant imports (a constants leaf)
 from plant import kernel
@@ -100,7 +101,7 @@ class AxisPlant:
     (the 6 A rating of §3.2 is reported, not enforced: see ``current_over_rating_us``).
     """
 
-    def __init__(self, params: AxisParameters, name: str | None = None, effects=None) -> None:
+    def __init__(self, params: AxisParameters, name: str | None = None, effects=None, seed: int = 0) -> None:
         self.params = params
         self.name = name if name is not None else params.name
         self.perfect = bool(params.perfect)
@@ -136,6 +137,19 @@ class AxisPlant:
         self._roller = enc.roller_ratio
         self._enc_err_rad = 0.0 if self.perfect else enc.incremental_error_arcsec / ARCSEC_PER_RAD
         self._abs_counts = 1 << enc.absolute_bits
+        # issue 12: motor tachometers (CP-850) and the auxiliary encoder (A25S through 1:10.8)
+        self._tach_scale = params.tachometer.counts_per_rev / _TWO_PI
+        ax = params.aux_encoder
+        self._aux_r = ax.reduction
+        self._aux_n = 1 << ax.bits
+        off = self.perfect
+        self._aux_e1 = 0.0 if off else ax.once_per_rev_arcsec / ARCSEC_PER_RAD
+        self._aux_e2 = 0.0 if off else ax.twice_per_rev_arcsec / ARCSEC_PER_RAD
+        self._aux_p1, self._aux_p2 = ax.once_per_rev_phase_rad, ax.twice_per_rev_phase_rad
+        self._aux_sigma = 0.0 if off else ax.noise_arcsec / ARCSEC_PER_RAD
+        #: seed of the auxiliary encoder's read noise (the scenario's seed, see host/network.py)
+        self.seed = int(seed)
+        self._aux_rng = random.Random(f"aux-encoder/{self.name}/{self.seed}")
         # gear-train torque lines (plant/gear_train_disturbance.py); empty table = none
         gd = None if self.perfect else params.gear_disturbance
         self._lines = lines_table(gd)
@@ -332,6 +346,50 @@ class AxisPlant:
         n = self._abs_counts
         c = math.floor((self.axis_angle_rad % _TWO_PI) / _TWO_PI * n)
         return c if c < n else n - 1
+
+    # -- issue 12: motor tachometers and the auxiliary encoder ------------------------------------
+    def tach_counts(self, motor: str) -> int:
+        """Count of the CP-850 incremental encoder on motor ``"a"`` or ``"b"`` (cumulative, signed)
+        at the current plant time: ``floor(φk · counts_per_rev / 2π)`` (paper §3.2; resolution:
+        ``tachometer.counts_per_rev``). Ideal encoder (no line error).
+
+        Raises
+        ------
+        ValueError
+            ``motor`` is not ``"a"`` or ``"b"``.
+        """
+        if motor == "a":
+            return math.floor(self.motor_a_angle_rad * self._tach_scale)
+        if motor == "b":
+            return math.floor(self.motor_b_angle_rad * self._tach_scale)
+        raise ValueError(f"{self.name}: motor must be 'a' or 'b', got {motor!r}")
+
+    def aux_encoder_angle_rad(self) -> float:
+        """True angle of the auxiliary encoder's shaft [rad]: ``reduction · θ`` (ideal 1:10.8
+        reduction: no backlash or transmission error; encoder zero at axis zero). Multi-turn."""
+        return self.axis_angle_rad * self._aux_r
+
+    def aux_encoder_word(self) -> int:
+        """The 17-bit single-turn word of the auxiliary encoder (Gurley A25S, paper §3.2) at the
+        current plant time, 0 .. 2**bits − 1.
+
+        ``floor(((φe + e(φe)) mod 2π) / 2π · 2**bits)`` with ``φe = reduction · θ`` and
+        ``e = a1 sin(φe + p1) + a2 sin(2φe + p2) + n``, ``n`` ~ N(0, noise) drawn from a generator
+        seeded with the axis name and :attr:`seed` (one draw per read: a run is reproducible for
+        the same read sequence). ``perfect`` turns every error term off.
+        """
+        phi = self.axis_angle_rad * self._aux_r
+        e = 0.0
+        if self._aux_e1:
+            e += self._aux_e1 * math.sin(phi + self._aux_p1)
+        if self._aux_e2:
+            e += self._aux_e2 * math.sin(2.0 * phi + self._aux_p2)
+        if self._aux_sigma:
+            e += self._aux_rng.gauss(0.0, self._aux_sigma)
+        n = self._aux_n
+        c = math.floor(((phi + e) % _TWO_PI) / _TWO_PI * n)
+        return c if c < n else n - 1
+    # -- end issue 12 --------------------------------------------------------------------------
 
     def shunt_voltage_v(self, motor: str) -> float:
         """Voltage across the 0.1 Ω shunt of motor ``"a"`` or ``"b"`` [V] = i · 0.1 Ω (i >= 0).

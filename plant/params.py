@@ -42,6 +42,8 @@ __all__ = [
     "FrictionSet",
     "FrictionParameters",
     "EncoderParameters",
+    "TachometerParameters",
+    "AuxEncoderParameters",
     "AxisParameters",
     "FocusParameters",
     "PlantParameters",
@@ -287,6 +289,62 @@ class EncoderParameters:
         return ARCSEC_PER_REV / self.counts_per_axis_rev
 
 
+# -- issue 12: motor tachometers and the auxiliary encoder --------------------------------------
+@dataclass(frozen=True, config=_CFG)
+class TachometerParameters:
+    """The CP-850 incremental encoder on each motor shaft, used as a digital tachometer (§3.2).
+
+    Attributes
+    ----------
+    counts_per_rev : int
+        Quadrature counts per motor revolution (assumed; see the leaf's source).
+    """
+
+    counts_per_rev: PositiveInt
+
+
+@dataclass(frozen=True, config=_CFG)
+class AuxEncoderParameters:
+    """The auxiliary absolute encoder: 17-bit Gurley A25S through a 1:10.8 reduction, ±15″ (§3.2).
+
+    The error model (at the encoder shaft, angle φe = reduction · θ):
+    ``e(φe) = a1·sin(φe + p1) + a2·sin(2φe + p2) + n``, ``n`` Gaussian with standard deviation
+    ``noise_arcsec`` (seeded), then quantised to the 17-bit word. See :meth:`plant.axis.AxisPlant.aux_encoder_word`.
+
+    Attributes
+    ----------
+    bits : int
+        Single-turn word width, 17.
+    reduction : float
+        Encoder turns per axis turn, 10.8.
+    once_per_rev_arcsec, twice_per_rev_arcsec : float
+        Amplitudes of the once- and twice-per-encoder-revolution errors [arcsec at the encoder shaft].
+    once_per_rev_phase_rad, twice_per_rev_phase_rad : float
+        Their phases [rad].
+    noise_arcsec : float
+        Standard deviation of the read noise [arcsec at the encoder shaft].
+    """
+
+    bits: PositiveInt
+    reduction: Positive
+    once_per_rev_arcsec: NonNegative
+    once_per_rev_phase_rad: Number
+    twice_per_rev_arcsec: NonNegative
+    twice_per_rev_phase_rad: Number
+    noise_arcsec: NonNegative
+
+    @property
+    def counts_per_axis_rev(self) -> float:
+        """Encoder counts per axis revolution (2**17 · 10.8 = 1 415 577.6)."""
+        return (1 << self.bits) * self.reduction
+
+    @property
+    def arcsec_per_count(self) -> float:
+        """Resolution at the axis [arcsec/count] (0.9155″)."""
+        return ARCSEC_PER_REV / self.counts_per_axis_rev
+# -- end issue 12 ---------------------------------------------------------------------------------
+
+
 @dataclass(frozen=True, config=_CFG)
 class AxisParameters:
     """Everything one :class:`plant.axis.AxisPlant` needs.
@@ -301,7 +359,7 @@ class AxisParameters:
         Longest integrator substep [µs].
     drive_model : str
         ``"twin_train"`` or ``"rigid"``.
-    motor, gear, drive, friction, encoders
+    motor, gear, drive, friction, encoders, tachometer, aux_encoder
         Sub-sections.
     effects : tuple of dict
         Effect specs ``{kind, **params}`` (built by :func:`plant.effects.build_effect`).
@@ -322,6 +380,8 @@ class AxisParameters:
     drive: DriveParameters
     friction: FrictionParameters
     encoders: EncoderParameters
+    tachometer: TachometerParameters
+    aux_encoder: AuxEncoderParameters
     effects: EffectSpecs
     perfect: Switch = False
     gear_disturbance: dict = field(default_factory=dict)

@@ -8,14 +8,17 @@ import pytest
 
 from boards.registry import BOARDS
 from bus import protocol as P
-from boards.registry import DEFAULT_BOARD_NAMES as _DEFAULT_NAMES
+from boards.registry import network_boards, network_nodes
 from bus.eds.objects import serial_number
 from host.network import build_network
 from host.runner import run_scenario
 from host.scenario import parse_scenario
 from canopen_sim import PumpedNetwork
 
-SCENARIO = "name: c\nsegments:\n  - {name: a, axis: ra, mode: track, direction: 1, duration_s: 0.5}\n"
+#: the boards of the default (basic) network that answer the health check
+BASIC_NODES = network_nodes("basic")
+
+SCENARIO = "name: c\nnetwork: full\nsegments:\n  - {name: a, axis: ra, mode: track, direction: 1, duration_s: 0.5}\n"
 
 
 @pytest.fixture
@@ -43,6 +46,10 @@ def _expected_parameters(board) -> dict:
     if board.KIND == "weather":
         return {(0x2500, 1): round(board.high_wind_limit_m_s * 100), (0x2500, 2): round(board.high_wind_clear_m_s * 100),
                 (0x2500, 3): board.clear_hold_us // 1_000_000, (0x2500, 4): round(board.humidity_limit_pct * 100)}
+    if board.KIND == "tachometer":
+        return {(0x2300, 0): board.counts_per_rev}
+    if board.KIND == "aux_encoder":
+        return {(0x2400, 2): int(board.turns_seeded), (0x2400, 3): 17}
     return {(0x2200, 1): board.travel_halfsteps, (0x2200, 2): round(1e6 / board.step_period_us)}
 
 
@@ -81,14 +88,14 @@ def test_nmt_from_the_master_gates_the_process_data(tel):
     tel.scheduler.run_until(tel.scheduler.now_us + 1_500_000)
     after = [(t, cid, d) for t, cid, d in master.received if t > t_stop]
     assert not {cid for _, cid, _ in after} & pdo_ids
-    assert {cid for _, cid, d in after if d == bytes([4])} >= {P.heartbeat_cob_id(n) for n in P.BOARD_NODES}   # every board is built
+    assert {cid for _, cid, d in after if d == bytes([4])} >= {P.heartbeat_cob_id(n) for n in BASIC_NODES}
 
 
 def test_report_lists_identity_and_parameters_read_back_over_sdo(tmp_path):
     sc = parse_scenario(SCENARIO, str(tmp_path / "s.yaml"))
     run_scenario(sc, tmp_path / "out", plots=False)
     on_disk = json.loads((tmp_path / "out" / "report.json").read_text())
-    for name in _DEFAULT_NAMES:            # the boards a default run builds
+    for name in network_boards("basic"):  # the boards a default run builds
         spec, inst = BOARDS[name]
         row = on_disk["boards"][name]
         assert row["identity"]["product_code"] == int(spec.device_type)

@@ -484,14 +484,12 @@ def test_dome_segment_without_a_dome_fails_before_running(tmp_path):
 
 
 def test_a_fault_on_a_board_not_in_the_network_fails_before_running(tmp_path):
-    """A fault aimed at a room node that the default network does not build is refused before
-    power-on, naming the key."""
-    from host.runner import run_scenario
+    """A fault aimed at a room node that the default network does not build is refused when the
+    scenario loads, naming the key."""
     from host.scenario import ScenarioError, parse_scenario
-    sc = parse_scenario("name: x\nfaults:\n  - {at_s: 0.5, kind: board_reset, board: dome}\n"
-                        "segments:\n  - {name: a, mode: stop, duration_s: 1}\n", str(tmp_path / "s.yaml"))
-    with pytest.raises(ScenarioError, match=r"faults\[0\]\.board"):
-        run_scenario(sc, None)
+    with pytest.raises(ScenarioError, match=r"faults\[0\]\.board.*not on the network 'basic'"):
+        parse_scenario("name: x\nfaults:\n  - {at_s: 0.5, kind: board_reset, board: dome}\n"
+                       "segments:\n  - {name: a, mode: stop, duration_s: 1}\n", str(tmp_path / "s.yaml"))
 
 
 def test_dome_objects_are_written_and_range_checked_over_sdo(tmp_path):

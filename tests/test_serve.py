@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from bus import protocol as P
-from boards.registry import BOARDS as _REG_BOARDS, DEFAULT_BOARD_NAMES as _DEFAULT_NAMES
+from boards.registry import network_nodes
 from host.cli import main
 from host.monitor import PassiveHostError
 from host.network import build_network
@@ -21,8 +21,8 @@ from host.network import build_network
 from host.scenario import load_scenario
 from host.serve import DEFAULT_SCENARIO, ServeSession, serve_scenario, served_interface
 
-#: The boards a default network builds (the room nodes of issue 12 are built only by name).
-DEFAULT_NODES = tuple(int(_REG_BOARDS[n][1].node_id) for n in _DEFAULT_NAMES)
+#: the boards of the default (basic) network that answer the health check
+BASIC_NODES = network_nodes("basic")
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -45,7 +45,7 @@ def _drain(bus: can.BusABC) -> list[can.Message]:
 
 def _pings() -> list[can.Message]:
     """The health check of docs/protocol.md: an SDO upload of 0x1000 to every board."""
-    return [_msg(P.sdo_request_cob_id(n), P.encode_sdo(0x40, 0x1000, 0)) for n in DEFAULT_NODES]
+    return [_msg(P.sdo_request_cob_id(n), P.encode_sdo(0x40, 0x1000, 0)) for n in BASIC_NODES]
 
 
 def _nmt_start() -> can.Message:
@@ -96,7 +96,7 @@ def test_external_python_host_on_the_in_process_bus(scenario):
         sched.run_until(sched.now_us + 10_000)
         answers = {P.node_of(m.arbitration_id): m for m in _drain(ext)
                    if P.frame_kind(m.arbitration_id) == "SDO_RESPONSE"}
-        assert sorted(answers) == sorted(DEFAULT_NODES)
+        assert sorted(answers) == sorted(BASIC_NODES)
         for node, m in answers.items():
             sdo = P.decode(m.arbitration_id, bytes(m.data))
             assert (sdo.command, sdo.index, sdo.data >> 16) == (0x43, 0x1000, P.DEVICE_TYPE_OF_NODE[node])
@@ -107,7 +107,7 @@ def test_external_python_host_on_the_in_process_bus(scenario):
         sched.run_until(1_100_000)                       # past the 1 s heartbeats
         beats = {P.node_of(m.arbitration_id): P.decode(m.arbitration_id, bytes(m.data)).state
                  for m in _drain(ext) if P.frame_kind(m.arbitration_id) == "HEARTBEAT"}
-        assert beats == {n: P.NodeState.OPERATIONAL for n in DEFAULT_NODES}
+        assert beats == {n: P.NodeState.OPERATIONAL for n in BASIC_NODES}
 
         ext.send(_track_ra())
         sched.run_until(sched.now_us + 4_000_000)        # settling (breakaway takes ~3 s)

@@ -25,10 +25,10 @@ import can
 import pytest
 
 from bus import protocol as P
-from boards.registry import BOARDS as _REG_BOARDS, DEFAULT_BOARD_NAMES as _DEFAULT_NAMES
+from boards.registry import network_nodes
 
-#: The boards a default network builds (the room nodes of issue 12 are built only by name).
-DEFAULT_NODES = tuple(int(_REG_BOARDS[n][1].node_id) for n in _DEFAULT_NAMES)
+#: the boards of the default (basic) network that answer the health check
+BASIC_NODES = network_nodes("basic")
 
 ROOT = Path(__file__).resolve().parent.parent
 CHANNEL = "vcan0"
@@ -316,7 +316,7 @@ def test_candump_hears_every_frame_and_cantools_decodes_it(tracking):
         assert abs(counts[P.axis_aux_cob_id(node)] - sim_s * 100) <= 3
     for node in P.READER_NODES:
         assert abs(counts[P.position_cob_id(node)] - sim_s * 100) <= 3
-    for node in DEFAULT_NODES:
+    for node in BASIC_NODES:
         assert counts[P.heartbeat_cob_id(node)] >= int(sim_s)     # 1 s period, + boot-up
         assert counts[P.sdo_response_cob_id(node)] >= 1           # health check, identity, parameters
     assert counts[P.nmt_cob_id()] == 1                            # NMT start after the health check

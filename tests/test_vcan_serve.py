@@ -23,11 +23,11 @@ import can
 import pytest
 
 from bus import protocol as P
-from boards.registry import BOARDS as _REG_BOARDS, DEFAULT_BOARD_NAMES as _DEFAULT_NAMES
+from boards.registry import network_nodes
 from test_vcan import _WHY, CHANNEL, _record
 
-#: The boards a default network builds (the room nodes of issue 12 are built only by name).
-DEFAULT_NODES = tuple(int(_REG_BOARDS[n][1].node_id) for n in _DEFAULT_NAMES)
+#: the boards of the default (basic) network that answer the health check
+BASIC_NODES = network_nodes("basic")
 
 ROOT = Path(__file__).resolve().parent.parent
 pytestmark = [pytest.mark.vcan, pytest.mark.skipif(_WHY is not None, reason=_WHY or "")]
@@ -98,7 +98,7 @@ def served(tmp_path_factory):
             t0 = time.monotonic()
             collect(lambda: time.monotonic() - t0 > 0.3)          # the boards' boot heartbeats
             # the health check (SDO upload of 0x1000 from every board), then NMT start
-            for node in DEFAULT_NODES:
+            for node in BASIC_NODES:
                 host.send(can.Message(arbitration_id=P.sdo_request_cob_id(node), is_extended_id=False,
                                       data=P.encode_sdo(0x40, 0x1000, 0)))
             host.send(can.Message(arbitration_id=P.nmt_cob_id(), is_extended_id=False,
@@ -135,7 +135,7 @@ def test_serve_answers_an_external_ping_with_five_heartbeats(served):
     for t, m in served["frames"][served["i_ping"]:served["i_track"]]:
         if P.frame_kind(m.arbitration_id) == "SDO_RESPONSE":
             answers.setdefault(P.node_of(m.arbitration_id), P.decode(m.arbitration_id, bytes(m.data)))
-    assert sorted(answers) == sorted(DEFAULT_NODES), served["stdout"]
+    assert sorted(answers) == sorted(BASIC_NODES), served["stdout"]
     assert all((a.command, a.index, a.data >> 16) == (0x43, 0x1000, P.DEVICE_TYPE_OF_NODE[n])
                for n, a in answers.items())
     banner = served["stdout"]

@@ -369,6 +369,23 @@ _WEATHER_MFR = (
     ], "weather station thresholds (paper 5.2)"),
 )
 # -- end room nodes
+# -- issue 12: tachometer and auxiliary-encoder objects ---------------------------------------
+_TACH_MFR = (
+    var(0x2300, "Encoder counts per revolution", UNSIGNED32, "ro", None, 1, I32_MAX, unit="counts/rev",
+        description="CP-850 counts per motor revolution (4 x lines; plant/parameters.yaml)"),
+)
+
+_AUX_MFR = (
+    compound(0x2400, "Auxiliary encoder", RECORD, [
+        Entry(1, "Turn count", INTEGER32, "ro", None, unit="encoder turns",
+              description="turns of the encoder shaft since the axis zero (seeded from POSITION)"),
+        Entry(2, "Turns seeded", UNSIGNED8, "ro", None, 0, 1,
+              description="1 once the turn count was seeded from the main encoder's POSITION"),
+        Entry(3, "Word bits", UNSIGNED8, "ro", None, 1, 31, unit="bits",
+              description="single-turn word width (17: Gurley A25S, paper 3.2)"),
+    ], "the A25S through the 1:10.8 reduction (paper 3.2); turn count: boards/aux_encoder.py"),
+)
+# -- end issue 12 objects ---------------------------------------------------------------------
 
 KINDS: Dict[str, Kind] = {k.name: k for k in (
     Kind("axis_controller", "schmidt-fil axis controller", int(proto.DeviceType.AXIS_CONTROLLER),
@@ -415,6 +432,17 @@ KINDS: Dict[str, Kind] = {k.name: k for k in (
          tpdos=(Pdo(1, "WEATHER_STATUS", "$NODEID+0x180", _ms(proto.WEATHER_STATUS_PERIOD_US)),),
          rpdos=(), consumer_heartbeat=(("Host heartbeat", HOST_HB),), manufacturer=_WEATHER_MFR),
     # -- end room nodes
+    # -- issue 12: tachometer and auxiliary-encoder kinds --
+    Kind("tachometer", "schmidt-fil motor tachometer", int(proto.DeviceType.TACHOMETER),
+         tuple(int(n) for n in proto.TACH_NODES), "PIC18F4431",
+         tpdos=(Pdo(1, "TACH_STATUS", "$NODEID+0x180", _ms(proto.TACH_STATUS_PERIOD_US)),),
+         rpdos=(), consumer_heartbeat=(("Host heartbeat", HOST_HB),), manufacturer=_TACH_MFR),
+    Kind("aux_encoder", "schmidt-fil auxiliary encoder", int(proto.DeviceType.AUX_ENCODER),
+         tuple(int(n) for n in proto.AUX_NODES), "PIC18F4480",
+         tpdos=(Pdo(1, "AUX_POSITION", "$NODEID+0x180", _ms(proto.AUX_POSITION_PERIOD_US)),),
+         rpdos=(Pdo(1, "POSITION", "$NODEID+0x179", note="its axis reader TPDO1 (0x180 + node - 7): seeds the turn count"),),
+         consumer_heartbeat=(("Host heartbeat", HOST_HB),), manufacturer=_AUX_MFR),
+    # -- end issue 12 kinds --
     Kind("host", "schmidt-fil host (USB-to-CAN gateway)", int(proto.DeviceType.HOST),
          (int(proto.NodeId.HOST),), "PIC18F4550",
          tpdos=(Pdo(1, "STOP_ALL", "$NODEID+0x180", note="broadcast; every board consumes it"),),
@@ -474,6 +502,7 @@ def _communication_objects(k: Kind) -> List[Obj]:
 #: Process-data objects: one RECORD per frame carried as a PDO, in this order from 0x3000.
 PDO_FRAMES = ("AXIS_STATUS", "AXIS_AUX", "AXIS_COMMAND", "LIMIT", "POSITION", "FOCUS_STATUS",
               "FOCUS_COMMAND", "STOP_ALL",
+              "TACH_STATUS", "AUX_POSITION",   # issue 12: tachometers, auxiliary encoders
               # issue 12, room nodes
               "DISPLAY_STATUS", "DOME_STATUS", "DOME_COMMAND", "WEATHER_STATUS")
 PROCESS_DATA_BASE = 0x3000

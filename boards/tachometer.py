@@ -1,0 +1,147 @@
+"""Motor tachometer firmware: the CP-850 incremental encoder on one DC motor shaft (paper §3.2).
+
+Nodes 6..9 (``TACH_RA_1``, ``TACH_RA_2``, ``TACH_DEC_1``, ``TACH_DEC_2``; motor 1 = motor A, which
+drives the positive direction, motor 2 = motor B), device type 0x04. The paper says each motor
+"is coupled to a CP-850 incremental encoder which functions as a digital tachometer" and that the
+lab network carried "velocity measurements for the four DC motors" (§3.4); §5.2's maintenance
+console shows the tachometer readings and, with the axis velocity, the gear reduction at run time.
+
+Hardware (assumed: the paper names no microcontroller for this board): a PIC18F4431, the part the
+focus controller uses for its motor encoder, whose motion-feedback module has a quadrature
+encoder interface (16-bit POSCNT). Modelled with :class:`boards.peripherals.Qei` (16-bit
+register + the firmware's 32-bit software extension).
+
+Every 5 ms (timer ISR, :data:`bus.protocol.TACH_STATUS_PERIOD_US`; the axis controllers' tick,
+§3.3) the ISR reads POSCNT, extends it, stores the count in a ring of the last
+:data:`bus.protocol.TACH_MAX_WINDOW_TICKS` ticks and queues one ``TACH_STATUS``: the low 16 bits of
+the count (the host differences counts over any window it likes) and a speed estimate.
+
+Speed estimate (documented choice, not from the paper): the count difference over the shortest
+window of :data:`WINDOWS_TICKS` (20 ms .. 1 s) that holds at least :data:`MIN_COUNTS` counts,
+i.e. a resolution of at most 1/16 of the reading once the window holds 16 counts, with a lag of
+half the window. With 4000 counts/rev (the parameter file's assumed CP-850 resolution) a 2°/s
+slew (8000 counts/s at the motor) uses the 20 ms window (160 counts: 0.6 % resolution); the
+15″/s tracking rate (16.7 counts/s at the motor) needs the full 1 s window and still holds only
+≈17 counts (6 % resolution). No count in 1 s is reported as speed 0 with window 200 ticks.
+
+Not modelled: the encoder's line errors and index pulse, QEI noise filters, the count direction
+of a mirrored mounting (the count follows the motor angle of the plant).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from typing import Callable, Optional
+
+import can
+
+from boards.firmware_base import Board
+from boards.peripherals import Qei, Timer
+from bus import protocol as proto
+from bus.scheduler import PRIO_ISR, Scheduler
+
+__all__ = ["Tachometer", "WINDOWS_TICKS", "MIN_COUNTS"]
+
+#: Candidate speed windows, 5 ms ticks (20 ms .. 1 s), shortest first (assumed, see module doc).
+WINDOWS_TICKS = (4, 10, 20, 50, 100, proto.TACH_MAX_WINDOW_TICKS)
+#: Counts a window must hold before it is used (assumed: 1/16 quantisation of the reading).
+MIN_COUNTS = 16
+
+
+class Tachometer(Board):
+    """CP-850 motor tachometer firmware (PIC18F4431 QEI).
+
+    Parameters
+    ----------
+    scheduler, bus, name, serial_port
+        As :class:`boards.firmware_base.Board` (no RS232 telemetry: the paper's RS232 set-up
+        had the PI, position and focus boards only; a port is refused).
+    node_id : int
+        6..9.
+    read_motor_counts : callable
+        Port: the motor encoder's cumulative signed count.
+    counts_per_rev : int
+        Encoder counts per motor revolution (parameter file ``axes.<axis>.tachometer``).
+    period_us : int
+        ISR and ``TACH_STATUS`` period, µs (5000).
+    """
+
+    DEVICE_TYPE = int(proto.DeviceType.TACHOMETER)
+    KIND = "tachometer"
+    CANOPEN_KIND = "tachometer"
+
+    def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int = 6, *,
+                 read_motor_counts: Callable[[], int], counts_per_rev: int,
+                 period_us: int = proto.TACH_STATUS_PERIOD_US, name: Optional[str] = None,
+                 serial_port=None) -> None:
+        if serial_port is not None:
+            raise ValueError("the tachometer has no RS232 telemetry (paper §3.4: PI, position and focus boards)")
+        if int(counts_per_rev) <= 0:
+            raise ValueError(f"counts_per_rev must be > 0, got {counts_per_rev}")
+        super().__init__(scheduler, bus, node_id, name=name, background_period_us=period_us)
+        self.counts_per_rev = int(counts_per_rev)
+        self.period_us = int(period_us)
+        self.qei = Qei(read_motor_counts)
+        self.qei.reset()            # power-on: POSCNT cleared (the count is relative to power-on)
+        self._urad_per_count_tick = 2.0 * math.pi / self.counts_per_rev * 1e6 / (self.period_us * 1e-6)
+        self.timer = self.add_timer(Timer(scheduler, self.period_us, self.isr_tick, priority=PRIO_ISR,
+                                          owner=f"{self.name}/isr"))
+        self._init_tach_state()
+
+    def _peripherals(self) -> list:
+        return [self.qei]
+
+    def _init_state(self) -> None:
+        super()._init_state()
+        if hasattr(self, "qei"):
+            self._init_tach_state()
+
+    def _init_tach_state(self) -> None:
+        self._ring: deque = deque(maxlen=proto.TACH_MAX_WINDOW_TICKS + 1)
+        self.speed_urad_s = 0
+        self.window_ticks = proto.TACH_MAX_WINDOW_TICKS
+        self.frames_queued = 0
+
+    @property
+    def speed_rad_s(self) -> float:
+        """Last speed estimate [rad/s] of the motor shaft."""
+        return self.speed_urad_s * 1e-6
+
+    def report_counters(self) -> dict:
+        """Encoder resolution and the last reading (the report's board row)."""
+        return {"counts_per_rev": self.counts_per_rev, "qei_counts": self.qei.extended,
+                "speed_rad_s": round(self.speed_rad_s, 6), "window_ticks": self.window_ticks}
+
+    # ------------------------------------------------------------------ ISR (5 ms)
+    def isr_tick(self, now_us: int) -> None:
+        """Timer ISR: read the QEI, update the speed estimate, queue ``TACH_STATUS``."""
+        self.qei.read_delta()
+        c = self.qei.extended
+        ring = self._ring
+        ring.append(c)
+        n = len(ring) - 1
+        w, d = n, 0
+        for w in WINDOWS_TICKS:
+            if w > n:
+                w = n
+                d = c - ring[0] if n else 0
+                break
+            d = c - ring[-1 - w]
+            if abs(d) >= MIN_COUNTS:
+                break
+        if w == 0:
+            self.speed_urad_s, self.window_ticks = 0, 1
+        else:
+            self.speed_urad_s = int(round(d * self._urad_per_count_tick / w))
+            self.window_ticks = w
+        self.frames_queued += 1
+        self.queue(proto.tach_status_cob_id(self.node_id),
+                   proto.encode_tach_status(self.window_ticks, c, self.speed_urad_s))
+
+    # ------------------------------------------------------------------ CANopen objects (SDO)
+    def od_read(self, index: int, subindex: int):
+        """0x2300 encoder counts per revolution."""
+        if index == 0x2300:
+            return self.counts_per_rev
+        return super().od_read(index, subindex)
