@@ -61,15 +61,21 @@ class UsbHostPort:
         self.name = name
         #: IN reports taken and not yet read: ``(time_us, report)``
         self.received: Deque[Tuple[int, bytes]] = deque()
-        self._out: Deque[bytes] = deque()
+        self._out: Deque[Tuple[int, bytes]] = deque()     # (time written, report)
         #: called with ``(report, now_us)`` for each IN report taken, instead of buffering it
         self.on_in_report: Optional[Callable[[bytes, int], None]] = None
+        #: called (no arguments) after an IN report is put in :attr:`received`: a reader that
+        #: waits for reports (a PC thread blocked in ``read``) wakes at once
+        self.on_buffered: Optional[Callable[[], None]] = None
         self.opened = False
         self.frames = 0
         self.in_reports = 0
         self.out_reports = 0
         self.out_rejected = 0
         self.polls_skipped = 0
+        #: wait of the OUT reports the device accepted, from ``write`` to the device taking it [µs]
+        self.out_wait_sum_us = 0
+        self.out_wait_max_us = 0
         start = (scheduler.now_us // FRAME_PERIOD_US + 1) * FRAME_PERIOD_US
         self._event = scheduler.call_every(FRAME_PERIOD_US, self._frame, start_us=start,
                                            priority=PRIO_HOST, owner=name)
@@ -88,7 +94,7 @@ class UsbHostPort:
         if len(self._out) >= self.out_queue_reports:
             self.out_rejected += 1
             return False
-        self._out.append(bytes(report))
+        self._out.append((self.scheduler.now_us, bytes(report)))
         return True
 
     @property
@@ -108,9 +114,12 @@ class UsbHostPort:
         self.frames += 1
         dev = self.device
         dev.host_sof(now_us)
-        if self._out and dev.host_out(self._out[0], now_us):
-            self._out.popleft()
+        if self._out and dev.host_out(self._out[0][1], now_us):
+            wait = now_us - self._out.popleft()[0]
             self.out_reports += 1
+            self.out_wait_sum_us += wait
+            if wait > self.out_wait_max_us:
+                self.out_wait_max_us = wait
         if not self.opened:
             return
         if self.on_in_report is None and len(self.received) >= self.rx_buffer_reports:
@@ -124,6 +133,18 @@ class UsbHostPort:
             self.on_in_report(report, now_us)
         else:
             self.received.append((now_us, report))
+            if self.on_buffered is not None:
+                self.on_buffered()
+
+    def counters(self) -> dict:
+        """The PC side of the link for the report: frames, reports each way, OUT reports refused
+        (queue full), polls skipped (the reader's buffer full) and the wait of the OUT reports
+        from ``write`` to the device [µs]."""
+        n = self.out_reports
+        return {"usb_frames": self.frames, "in_reports": self.in_reports, "out_reports": n,
+                "out_rejected": self.out_rejected, "polls_skipped": self.polls_skipped,
+                "out_wait_us": {"mean": round(self.out_wait_sum_us / n, 1) if n else None,
+                                "max": self.out_wait_max_us if n else None}}
 
     def shutdown(self) -> None:
         """Unplug: the frame event stops."""

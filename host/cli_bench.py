@@ -1,8 +1,8 @@
 """``schmidt-fil bench``: real-time factor of the whole network, and of the naive design.
 
 Prints the real-time factor (simulated seconds per wall second) of the full telescope network
-(two axis controllers, two EnDat readers, the focus controller and the host on one emulated CAN
-bus, plant included) in fast mode, and — in the same process, same scenario, same simulated
+(two axis controllers, two EnDat readers, the focus controller and the USB-HID gateway with the
+host client behind it on one emulated CAN bus, plant included) in fast mode, and — in the same process, same scenario, same simulated
 span — that of the naive design where every board has its own python-can ``virtual`` Bus
 (python-can copies each frame once per attached Bus). The ratio is ``rtf / rtf_naive``.
 
@@ -116,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(out))
     else:
-        print(f"network ({out['boards']} boards + host, in-process sim bus): {out['rtf']:8.1f}x real time")
+        print(f"network ({out['boards']} boards incl. the host's USB gateway, in-process sim bus): {out['rtf']:8.1f}x real time")
         print(f"naive (one python-can virtual Bus per board):            {out['rtf_naive']:8.1f}x real time")
         print(f"ratio: {out['ratio']:.2f}   target rtf >= 50: {'met' if out['rtf'] >= 50 else 'NOT met'}   "
               f"max RSS {out['max_rss_mib']} MiB")

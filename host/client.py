@@ -29,8 +29,9 @@ __all__ = ["HostClient", "Health", "AxisState", "NODE_NAMES", "AXIS_NODES"]
 AXIS_NODES = nodes_of_kind("axis_controller")       #: {"ra": 1, "dec": 2}
 READER_NODES = nodes_of_kind("position_reader")    #: {"ra": 3, "dec": 4}
 _AXIS_OF_NODE = {node: axis for axis, node in AXIS_NODES.items()}
-#: EDS (board kind) of each node: what the host's SDO client reads it with.
-_EDS_OF_NODE = {int(i.node_id): s.firmware.CANOPEN_KIND for s in REGISTRY for i in s.instances}
+#: EDS (board kind) of each CANopen node: what the host's SDO client reads it with (the USB
+#: gateway, the host's own node, has none).
+_EDS_OF_NODE = {int(i.node_id): s.firmware.CANOPEN_KIND for s in REGISTRY if s.canopen for i in s.instances}
 
 _MODE_CMD = {
     "stop": P.AxisCommand.STOP,
@@ -120,7 +121,7 @@ class HostClient:
 
     bus: can.BusABC
     scheduler: Scheduler
-    expected_nodes: tuple = tuple(NODE_NAMES)
+    expected_nodes: tuple = tuple(_EDS_OF_NODE)
     preset_rates_arcsec_s: dict = field(default_factory=dict)
     open_loop_duty: Callable[[float, str], float] | None = None
     adc_to_current_a: Callable[[int], float] = lambda c: c * (5.0 / 1023) / 0.1
@@ -128,6 +129,9 @@ class HostClient:
     advance: Callable[[int], None] | None = None
     arcsec_per_count: dict = field(default_factory=dict)
 
+    #: The assembly (:func:`host.network.build_network`) gives this host the bus of the USB-HID
+    #: gateway (:class:`host.gateway_bus.HidGatewayBus`), as the paper's PC had (§3.4).
+    THROUGH_GATEWAY = True
     BOOT_US = 20_000       #: wait after power-on before the health check [µs] (assumed)
     POWER_ON_US = 100_000  #: time the boards have to answer the health check's SDO [µs] (assumed)
     HEARTBEAT_US = 1_000_000   #: the host's CiA heartbeat period [µs] (its EDS 0x1017, 1000 ms)

@@ -24,6 +24,15 @@ Decisions written down here:
   link's receive callback once per packet (no per-byte or per-sample events).
 * **Focus encoder**: the focus firmware's QEI reads ``FocusPlant.motor_encoder_counts`` and is
   told the parameter file's counts per revolution.
+* **The host's path** (paper §3.4): the commanding host client talks to the bus through the
+  USB-HID gateway, a board of the registry (kind ``usb_gateway``, node 0x10): its USB side is
+  plugged into a private simulated USB host (:class:`host.hid_device.SimUsb`), a
+  :class:`host.hid_device.device` is opened on it and the client's bus is a
+  :class:`host.gateway_bus.HidGatewayBus` over that device. So frames reach the client at the
+  next 1 ms USB frame and its commands leave at the next one (docs/usb-gateway.md). A host class
+  with ``THROUGH_GATEWAY = False`` (the passive :class:`host.monitor.BusMonitor` of ``serve``, a
+  listener on the CAN bus) gets a CAN bus handle of its own, and the gateway stays unpowered
+  (bus-powered from the PC's USB, which ``serve`` does not have).
 * **Reports read what ran**: :meth:`Telescope.plant_summary` reads the plants (their friction
   after effects, their parameters), :meth:`Telescope.controller_summary` and
   :meth:`Telescope.board_summary` read the boards; nothing reads the input files again.
@@ -40,15 +49,19 @@ import can
 import bus as _bus_pkg  # noqa: F401  (registers the schmidt-sim python-can interface)
 from boards.axis_controller import PRESET_RATES_ARCSEC_S, AxisMode
 from boards.peripherals import Adc
-from boards.registry import BOARD_NAMES, BOARDS, BoardInstance
+from boards.registry import BOARD_NAMES, BOARDS, GATEWAY_KIND, BoardInstance
 from boards.tuning import GAINS_SOURCE, design_axis_gains
+from boards.usb_hid import PRODUCT_ID, VENDOR_ID
 from bus import protocol as P
+from bus import telemetry as T
 from bus.network import CanNetwork
 from bus.scheduler import PRIO_PLANT, Scheduler
 from bus.serial_link import SerialLink
 from bus.units import TICK_US
 from host import faults as _faults
+from host import hid_device
 from host.client import HostClient
+from host.gateway_bus import HidGatewayBus
 from host.rs232 import Rs232Hub
 from host.scenario import Scenario, resolve_parameters
 from plant.axis import AxisPlant
@@ -93,6 +106,8 @@ class Telescope:
     removed: set = field(default_factory=set)
     hub: Rs232Hub | None = None
     serial_links: dict = field(default_factory=dict)
+    #: the USB host port of the gateway the client talks through (None: a direct host)
+    usb_port: object = None
     _can_snapshot: dict = field(default_factory=dict, repr=False)   # CAN registers at close()
 
     def advance_plants(self, now_us: int | None = None) -> None:
@@ -105,6 +120,12 @@ class Telescope:
     def inject_fault(self, fault, now_us: int) -> None:
         """Apply one scenario fault (the table :data:`host.faults.FAULTS`)."""
         _faults.inject(self, fault, now_us)
+
+    @property
+    def host_can_bus(self) -> can.BusABC:
+        """The CAN bus handle of the host's node: the USB gateway's when the client talks
+        through it, else the client's own (a fault on "the host's frames" acts on this one)."""
+        return self.boards[_GATEWAY].can.bus if self.usb_port is not None else self.client.bus
 
     def axis_board(self, axis: str):
         """The axis controller of ``axis`` (``"ra"``/``"dec"``)."""
@@ -161,11 +182,14 @@ class Telescope:
         for name, b in self.boards.items():
             d = {"node": b.node_id, "malformed_frames": b.malformed_frames,
                  # the host's view first: a board whose heartbeat stopped is LOST whatever it was
-                 "state": "LOST" if b.node_id in self.client.lost else b.device.state,
-                 "emcy_sent": b.device.emcy.sent,
-                 "reset_cause": b.reset_cause, "resets": b.reset_count,
-                 "can": self._can_snapshot.get(name) or _can_registers(b)}
+                 "state": "LOST" if b.node_id in self.client.lost else b.status_name}
+            if getattr(b, "device", None) is not None:       # a CANopen board (not the gateway)
+                d["emcy_sent"] = b.device.emcy.sent
+            d.update({"reset_cause": b.reset_cause, "resets": b.reset_count,
+                      "can": self._can_snapshot.get(name) or _can_registers(b)})
             d.update(b.report_counters())
+            if name == _GATEWAY and self.usb_port is not None:   # the PC's side of the USB link
+                d["usb_host"] = self.usb_port.counters()
             if BOARDS[name][0].kind == "focus_controller":   # the plant's truth beside the firmware's count
                 d["plant_lost_halfsteps"] = self.focus_plant.lost_halfsteps
             if b.uart is not None:
@@ -196,6 +220,7 @@ class Telescope:
 
 
 _AXIS_BOARD = {i.axis: name for name, (s, i) in BOARDS.items() if s.kind == "axis_controller"}
+_GATEWAY = next(name for name, (s, i) in BOARDS.items() if s.kind == GATEWAY_KIND)
 
 
 def _can_registers(board) -> dict:
@@ -324,37 +349,57 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient) -
 
     sched.call_every(PLANT_PERIOD_US, plant_tick, start_us=0, priority=PRIO_PLANT, owner="plant")
 
-    # host first, so it hears the boards' boot heartbeats
+    # a direct host first, so it hears the boards' boot heartbeats (through the gateway, the
+    # gateway's CAN handle is made with the boards and started before them)
+    via_gateway = getattr(host_cls, "THROUGH_GATEWAY", True)
+    host_bus = None if via_gateway else new_bus()
     boards: dict = {}
-    adc = Adc({})
-    shunt = params.axes["ra"].motor.shunt_ohm
-    preset = {(AxisMode.NAMES[m].lower(), axis): rates[i] for m, rates in PRESET_RATES_ARCSEC_S.items()
-              for i, axis in enumerate(AXES)}
-    client = host_cls(
-        bus=new_bus(), scheduler=sched, preset_rates_arcsec_s=preset,
-        # the duty-speed map with the counter fraction the axis firmware runs
-        open_loop_duty=lambda rate, axis: open_loop_duty(rate, params.axes[axis],
-                                                         boards[_AXIS_BOARD[axis]].counter_fraction),
-        adc_to_current_a=lambda c: adc.to_volts(c) / shunt,
-    )
 
-    # RS232 telemetry: one point-to-point link per board, the far ends on the host's hub
+    # RS232 telemetry: one point-to-point link per board that has it (bus.telemetry), the far
+    # ends on the host's hub
     rs = scenario.rs232
     hub = Rs232Hub(sched, rs.baud) if rs.enabled else None
-    links = {name: SerialLink(sched, baud=rs.baud, name=f"rs232-{name}") for name in BOARD_NAMES} if hub else {}
+    tlm_boards = [name for name, (_, i) in BOARDS.items() if int(i.node_id) in T.DEVICE_OF_NODE]
+    links = {name: SerialLink(sched, baud=rs.baud, name=f"rs232-{name}") for name in tlm_boards} if hub else {}
 
     build = _Build(scenario, sched, params, plants, focus_plant, {})
     for name, (spec, inst) in BOARDS.items():
         kwargs = {port: PORTS[port](build, inst) for port in spec.ports}
         kwargs.update(SETTINGS.get(spec.kind, lambda b, i: {})(build, inst))
         boards[name] = spec.firmware(sched, new_bus(), inst.node_id, name=name,
-                                     serial_port=links[name].a if links else None, **kwargs)
-    client.arcsec_per_count = {axis: boards[_AXIS_BOARD[axis]].arcsec_per_count for axis in AXES}
+                                     serial_port=links[name].a if name in links else None, **kwargs)
     if hub is not None:
-        for name in BOARD_NAMES:
+        for name in tlm_boards:
             hub.add_port(links[name].b, name, boards[name].node_id)
+    gateway = boards[_GATEWAY]
+    if via_gateway:
+        gateway.start()        # first, so that it hears the boards' boot-up messages
     for b in boards.values():
-        b.start()
+        if b is not gateway:
+            b.start()
+    usb_port = None
+    if via_gateway:
+        # the PC's USB host: the client reads inside scheduler callbacks (advance=None) and is
+        # woken by each IN report (no poll event of its own)
+        usb = hid_device.SimUsb()
+        usb_port = usb.plug(gateway, advance=None)
+        dev = hid_device.device(usb=usb)
+        dev.open(VENDOR_ID, PRODUCT_ID)
+        host_bus = HidGatewayBus(dev)
+        buses.append(host_bus)
+
+    adc = Adc({})
+    shunt = params.axes["ra"].motor.shunt_ohm
+    preset = {(AxisMode.NAMES[m].lower(), axis): rates[i] for m, rates in PRESET_RATES_ARCSEC_S.items()
+              for i, axis in enumerate(AXES)}
+    client = host_cls(
+        bus=host_bus, scheduler=sched, preset_rates_arcsec_s=preset,
+        # the duty-speed map with the counter fraction the axis firmware runs
+        open_loop_duty=lambda rate, axis: open_loop_duty(rate, params.axes[axis],
+                                                         boards[_AXIS_BOARD[axis]].counter_fraction),
+        adc_to_current_a=lambda c: adc.to_volts(c) / shunt,
+        arcsec_per_count={axis: boards[_AXIS_BOARD[axis]].arcsec_per_count for axis in AXES},
+    )
     return Telescope(scenario=scenario, scheduler=sched, params=params, network=network, plants=plants,
                      focus_plant=focus_plant, boards=boards, client=client, gains=build.gains, buses=buses,
-                     hub=hub, serial_links=links)
+                     hub=hub, serial_links=links, usb_port=usb_port)
