@@ -114,6 +114,7 @@ class UsbGateway(Firmware):
         self.usb.on_out = self._on_out
         self.usb.on_get_feature = self._get_feature
         self.usb.on_set_feature = self._set_feature
+        self.usb.firmware_idle = self._idle
         self.reset_cause = "power_on"   # survives resets (RCON)
         self.reset_count = 0
         self.started = False
@@ -211,15 +212,22 @@ class UsbGateway(Firmware):
         if msg.is_remote_frame or msg.is_extended_id or msg.is_error_frame or msg.is_fd:
             self.rx_unsupported += 1
             return
-        if len(self._queue) >= self.rx_queue_frames:
+        q = self._queue
+        if not q:                           # the USB host may be idle only with an empty queue
+            self.usb.wake(False)
+        if len(q) >= self.rx_queue_frames:
             self.rx_dropped += 1
             self._raise(R.InFlags.RX_OVERFLOW)
             return
-        now = self.scheduler.now_us
-        self._queue.append((msg.arbitration_id, bytes(msg.data), (now - self.boot_us) & _U32))
+        q.append((msg.arbitration_id, bytes(msg.data), (self.scheduler.now_us - self.boot_us) & _U32))
         self.rx_frames += 1
-        if len(self._queue) > self.queue_high_water:
-            self.queue_high_water = len(self._queue)
+        if len(q) > self.queue_high_water:
+            self.queue_high_water = len(q)
+
+    def _idle(self) -> bool:
+        """The SOF interrupt has nothing to do: receive interrupt on, queue empty, no flags."""
+        return (self.can.interrupt_enabled and not self._queue and not self._pending_flags
+                and self.can.rx_overflows == self._hw_overruns_seen)
 
     def _raise(self, flag: int) -> None:
         self._pending_flags |= flag
@@ -294,6 +302,7 @@ class UsbGateway(Firmware):
             cmd = R.decode_command(report)
         except R.ReportError as exc:
             self._malformed(exc.reason)
+            self.usb.wake(True)                 # the OUT_MALFORMED flag goes in the next IN report
             return False
         if cmd.cmd == R.CMD_SET_FILTERS:
             self.filters = cmd.filters

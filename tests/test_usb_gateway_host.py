@@ -122,3 +122,29 @@ def test_send_many_packs_four_frames_per_report(tel):
     bus.send_many([can.Message(arbitration_id=0x640 + i, data=bytes([i]), is_extended_id=False) for i in range(9)])
     tel.scheduler.run_until(tel.scheduler.now_us + 5_000)
     assert seen == [0x640 + i for i in range(9)] and gw.out_reports == 3
+
+
+def test_gateway_reset_and_removal_as_scenario_faults(tel):
+    """board_reset on the gateway: it boots again and the host hears the boards again; then
+    remove_board: the host hears nothing and every board goes LOST in its view. malformed_frame
+    does not apply to the gateway."""
+    from host.faults import check_fault
+    from host.scenario import Fault
+
+    tel.client.power_on()
+    now = tel.scheduler.now_us
+    tel.inject_fault(Fault(at_s=0, kind="board_reset", board="gateway"), now)
+    gw = tel.boards["gateway"]
+    assert gw.reset_count == 1 and gw.reset_cause == "watchdog" and gw.rx_frames == 0
+    n0 = tel.client.frames_received
+    tel.scheduler.run_until(now + 100_000)
+    assert tel.client.frames_received > n0 + 50 and gw.status_name == "CONFIGURED"
+    tel.inject_fault(Fault(at_s=0, kind="remove_board", board="gateway"), tel.scheduler.now_us)
+    n1 = tel.client.frames_received
+    tel.scheduler.run_until(tel.scheduler.now_us + 3_000_000)
+    rows = tel.board_summary()
+    assert tel.client.frames_received == n1 and rows["gateway"]["state"] == "OFF"
+    assert {name: r["state"] for name, r in rows.items() if name != "gateway"} == {
+        name: "LOST" for name in ("ra-axis", "dec-axis", "ra-reader", "dec-reader", "focus")}
+    with pytest.raises(ValueError, match="malformed_frame needs board"):
+        check_fault("malformed_frame", "gateway", {})
