@@ -23,7 +23,7 @@ from typing import Callable
 
 import can
 
-from boards.registry import BOARDS
+from boards.registry import BOARDS, GATEWAY_KIND
 from bus import protocol as P
 from bus.errors import BusError, SimulationError
 from bus.units import ARCSEC_PER_RAD
@@ -66,6 +66,7 @@ def serve_scenario(scenario: Scenario, channel: str | None = None) -> Scenario:
 def served_interface() -> list[dict]:
     """What the emulated boards offer on the bus, per board in node order: node id, the COB-IDs
     it sends and the COB-IDs a host sends to it (from the board registry, :mod:`boards.registry`).
+    Not the USB gateway: it is the host's node, unpowered in ``serve`` (your program is the host).
 
     Returns
     -------
@@ -73,7 +74,8 @@ def served_interface() -> list[dict]:
         ``{"board", "node", "sends": [(cob_id, name), ...], "listens": [(cob_id, name), ...]}``.
     """
     return [{"board": name, "node": int(inst.node_id), "sends": spec.sends(inst.node_id),
-             "listens": spec.accepts(inst.node_id)} for name, (spec, inst) in BOARDS.items()]
+             "listens": spec.accepts(inst.node_id)} for name, (spec, inst) in BOARDS.items()
+            if spec.kind != GATEWAY_KIND]
 
 
 class ServeSession(Session):

@@ -400,3 +400,20 @@ def test_idle_frames_skipped_change_nothing(seed):
     assert fast == always
     assert len(fast[0]) > 50 and fast[2]["rx_dropped"] > 0 and fast[2]["out_malformed"] > 0
     assert sum(1 for t, i, _ in fast[1] if i == 0x3F0 and t % 1_000 == 0) >= 10    # boundary arrivals
+
+
+def test_frames_the_report_cannot_carry_are_counted_not_forwarded(rig):
+    """A frame of more than 8 data bytes, a remote and an extended frame handed to the gateway's
+    receive path (as host/fuzz.py does) are counted in rx_unsupported; the IN reports stay valid."""
+    rig.h.open(VID, PID)
+    rig.s.run_until(5_000)
+    read_all(rig.h)
+    n = rig.gw.rx_unsupported
+    for msg in (can.Message(arbitration_id=0x123, data=bytes(35), is_extended_id=False),
+                can.Message(arbitration_id=0x123, is_remote_frame=True, is_extended_id=False),
+                can.Message(arbitration_id=0x12345, data=b"\1", is_extended_id=True)):
+        rig.gw.can.on_rx(msg)
+    rig.s.run_until(20_000)
+    reps = read_all(rig.h)
+    assert rig.gw.rx_unsupported == n + 3 and reps
+    assert all(f.arbitration_id != 0x123 and len(f.data) <= 8 for _, rep in reps for f in rep.frames)
