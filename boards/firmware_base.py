@@ -57,7 +57,7 @@ from bus.eds.objects import EMCY_OF_FAULT
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_BACKGROUND, Scheduler
 
-__all__ = ["Board", "RESET_CAUSES", "STATE_BOOT", "STATE_OPERATIONAL", "STATE_FAULT",
+__all__ = ["Firmware", "Board", "RESET_CAUSES", "STATE_BOOT", "STATE_OPERATIONAL", "STATE_FAULT",
            "STATE_STOPPED", "FAULT_MALFORMED", "FAULT_CRC", "FAULT_OVERCURRENT",
            "FAULT_LIMIT_STOP", "FAULT_WATCHDOG", "FAULT_STEP_LOSS", "FAULT_REFUSED",
            "FAULT_BRAKE_CUT", "FAULT_READER_LOST", "FAULT_HOST_TIMEOUT", "FAULT_CLEARED", "FAULT_OVERSPEED"]
@@ -88,8 +88,82 @@ FAULT_CLEAR_HOLD_US = 1_000_000
 _OPERATIONAL = "OPERATIONAL"
 
 
-class Board(Application):
-    """Base class of the board firmwares.
+class Firmware:
+    """What every emulated processor board shares, CANopen or not: the processor reset and the
+    power switch (:class:`Board` and the USB gateway, :class:`boards.usb_gateway.UsbGateway`).
+
+    A subclass sets ``scheduler``, ``node_id``, ``name``, ``can`` (its
+    :class:`boards.peripherals.CanController`) and ``reset_cause = "power_on"``,
+    ``reset_count = 0``, ``started = False`` in its constructor, and implements
+    :meth:`_init_state` (RAM to power-on values), :meth:`_hardware_reset` (timers, CAN
+    controller, peripherals) and :meth:`start` (boot). ``reset_cause`` and ``reset_count``
+    survive resets (the RCON register and a persistent boot counter).
+    """
+
+    KIND = "firmware"
+    #: EDS of this board kind (a key of ``bus.eds.objects.KINDS``); "" = no CANopen device
+    CANOPEN_KIND = ""
+    #: the RS232 telemetry UART (:class:`boards.peripherals.Uart`), None without one
+    uart = None
+
+    def _init_state(self) -> None:
+        raise NotImplementedError
+
+    def _hardware_reset(self) -> None:
+        raise NotImplementedError
+
+    def _volatile_reset(self) -> None:
+        """Hook of :meth:`reset` between the hardware reset and the RAM reset (what a processor
+        reset clears that :meth:`power_off` keeps for the report)."""
+
+    def start(self) -> None:
+        raise NotImplementedError
+
+    @property
+    def status_name(self) -> str:
+        """The board's state for the report's board row."""
+        return "RUNNING" if self.started else "OFF"
+
+    def report_counters(self) -> dict:
+        """Counters of this board kind for the report's board row (besides the ones every board
+        has: malformed frames, state, reset cause and count). A board kind with counters of its
+        own overrides this; the report (``host.network.Telescope.board_summary``) needs no change."""
+        return {}
+
+    def reset(self, cause: str = "power_on") -> None:
+        """Processor reset; what survives: see the class docstring.
+
+        Parameters
+        ----------
+        cause : {"power_on", "watchdog", "software"}
+
+        Raises
+        ------
+        ValueError
+            Unknown cause.
+        """
+        if cause not in RESET_CAUSES:
+            raise ValueError(f"reset cause must be one of {sorted(RESET_CAUSES)}, got {cause!r}")
+        was_running = self.started
+        self._hardware_reset()
+        self._volatile_reset()
+        self.reset_cause = cause
+        self.reset_count += 1
+        self.started = False
+        self._init_state()
+        if was_running:
+            self.start()
+
+    def power_off(self) -> None:
+        """Remove the board's power: ISRs stop, outputs go to their reset state, nothing is sent
+        or received until :meth:`start` (power on again, cause ``power_on``)."""
+        self._hardware_reset()
+        self.started = False
+        self.reset_cause = "power_on"
+
+
+class Board(Firmware, Application):
+    """Base class of the CANopen board firmwares.
 
     Parameters
     ----------
@@ -212,30 +286,13 @@ class Board(Application):
     def on_start(self) -> None:
         """Hook for subclasses after boot."""
 
-    def report_counters(self) -> dict:
-        """Counters of this board kind for the report's board row (besides the ones every board
-        has: malformed frames, state, reset cause and count). A board kind with counters of its
-        own overrides this; the report (``host.network.Telescope.board_summary``) needs no change."""
-        return {}
+    @property
+    def status_name(self) -> str:
+        """The NMT state of the board's CANopen device."""
+        return self.device.state
 
-    def reset(self, cause: str = "power_on") -> None:
-        """Processor reset; see the module docstring for what survives.
-
-        Parameters
-        ----------
-        cause : {"power_on", "watchdog", "software"}
-        """
-        if cause not in RESET_CAUSES:
-            raise ValueError(f"reset cause must be one of {sorted(RESET_CAUSES)}, got {cause!r}")
-        was_running = self.started
-        self._hardware_reset()
+    def _volatile_reset(self) -> None:
         self.device.emcy.reset()             # active errors and the 0x1003 history are volatile
-        self.reset_cause = cause
-        self.reset_count += 1
-        self.started = False
-        self._init_state()
-        if was_running:
-            self.start()
 
     def _hardware_reset(self) -> None:
         """Timers, CAN controller and peripherals to their reset state (reset and power-off)."""
@@ -245,13 +302,6 @@ class Board(Application):
         self.can.reset()
         for p in self._all_peripherals():
             p.reset()
-
-    def power_off(self) -> None:
-        """Remove the board's power: ISRs stop, outputs go to their reset state (PWM duties 0),
-        nothing is sent or received until :meth:`start` (power on again, cause ``power_on``)."""
-        self._hardware_reset()
-        self.started = False
-        self.reset_cause = "power_on"
 
     # ------------------------------------------------------------------ CAN
     def _accept(self, arbitration_id: int) -> bool:

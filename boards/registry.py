@@ -24,16 +24,17 @@ from boards.aux_encoder import AuxEncoder
 from boards.axis_controller import AxisController
 from boards.display import DisplayUnit
 from boards.dome import DomeController
-from boards.firmware_base import Board
+from boards.firmware_base import Firmware
 from boards.focus_controller import FocusController
 from boards.position_reader import PositionReader
-from boards.weather import WeatherStation
 from boards.tachometer import Tachometer
+from boards.usb_gateway import UsbGateway
+from boards.weather import WeatherStation
 from bus import protocol as P
 from bus.eds.objects import KINDS as EDS_KINDS
 
 __all__ = ["BoardInstance", "BoardSpec", "REGISTRY", "BOARDS", "BOARD_NAMES", "NODE_NAMES",
-           "DEFAULT_BOARD_NAMES",
+           "DEFAULT_BOARD_NAMES", "CANOPEN_KINDS", "GATEWAY_KIND",
            "board", "board_of_node", "nodes_of_kind", "NETWORK_KINDS", "NETWORKS", "NETWORK_NAMES",
            "network_boards", "network_nodes"]
 
@@ -69,7 +70,8 @@ class BoardSpec:
     kind : str
         Registry key (``"axis_controller"``).
     firmware : type
-        The firmware class (a :class:`boards.firmware_base.Board`); constructed as
+        The firmware class (a :class:`boards.firmware_base.Firmware`: a CANopen
+        :class:`boards.firmware_base.Board`, or the USB gateway); constructed as
         ``firmware(scheduler, bus, node_id, name=..., serial_port=..., **ports, **settings)``.
     device_type : bus.protocol.DeviceType
         Byte 0 of every frame it sends (must match ``bus.protocol.DEVICE_TYPE_OF_NODE``).
@@ -89,9 +91,20 @@ class BoardSpec:
     instances: tuple[BoardInstance, ...]
     description: str = ""
 
+    @property
+    def canopen(self) -> bool:
+        """True for a board with a CANopen device (an EDS, ``firmware.CANOPEN_KIND``); False for
+        the USB gateway, the host's node, whose CANopen roles are the PC's (docs/usb-gateway.md)."""
+        return bool(self.firmware.CANOPEN_KIND)
+
     def sends(self, node_id: int) -> list[tuple[int, str]]:
         """``(cob_id, frame name)`` of every frame the board with ``node_id`` sends: its
-        protocol frames (TPDOs, EMCY, heartbeat) and its SDO responses."""
+        protocol frames (TPDOs, EMCY, heartbeat) and its SDO responses. The USB gateway sends
+        nothing of its own: the frames of the host's node (every frame whose sender is the
+        host, and the host's heartbeat) that the PC gives it."""
+        if not self.canopen:
+            return [(cob, name) for cob, (name, spec, n) in sorted(P.COB_TABLE.items())
+                    if spec.sender == "host" or n == node_id]
         return [(cob, name) for cob, (name, spec, n) in sorted(P.COB_TABLE.items())
                 if n == node_id and spec.sender != "host"]
 
@@ -100,7 +113,11 @@ class BoardSpec:
         EDS (``bus/eds``): NMT, the consumed heartbeats (0x1016 defaults: the host's), its
         RPDOs (STOP_ALL, LIMIT, then its own command frame, last) and SDO requests (before the
         command), from the EDS of ``firmware.CANOPEN_KIND``. The board's firmware builds the
-        same set from its ``CanopenDevice``."""
+        same set from its ``CanopenDevice``. The USB gateway passes every frame the boards send
+        to the PC (its power-on acceptance filters pass all)."""
+        if not self.canopen:
+            return [(cob, name) for cob, (name, spec, n) in sorted(P.COB_TABLE.items())
+                    if spec.sender != "host" and n != node_id]
         eds = EDS_KINDS[self.firmware.CANOPEN_KIND]
         out = [(P.nmt_cob_id(), P.frame_name(P.nmt_cob_id()))]
         out += [(P.heartbeat_cob_id(P.NodeId.HOST), P.frame_name(P.heartbeat_cob_id(P.NodeId.HOST)))]
@@ -164,6 +181,10 @@ REGISTRY: tuple[BoardSpec, ...] = (
                    BoardInstance("dec-aux", P.NodeId.AUX_DEC, "dec")),
         description="auxiliary encoder, 17-bit A25S through 1:10.8, SSI (§3.2, §5.2)"),
     # -- end issue 12 --
+    BoardSpec(
+        kind="usb_gateway", firmware=UsbGateway, device_type=P.DeviceType.HOST, ports=(),
+        instances=(BoardInstance("gateway", P.NodeId.HOST, None),),
+        description="USB-HID CAN gateway, PIC18F4550: the host PC's node (§3.4; docs/usb-gateway.md)"),
 )
 
 #: Every board by scenario name, in node order: name -> (spec, instance).
@@ -173,6 +194,11 @@ BOARDS: dict[str, tuple[BoardSpec, BoardInstance]] = dict(sorted(
 BOARD_NAMES: tuple[str, ...] = tuple(BOARDS)
 #: Board name of each node id.
 NODE_NAMES: dict[int, str] = {int(i.node_id): name for name, (_, i) in BOARDS.items()}
+#: Kind of the USB-HID gateway: the host's node, through which the host client talks.
+GATEWAY_KIND = "usb_gateway"
+#: Kinds of the boards with a CANopen device (every kind but the gateway): the host's health
+#: check, identity reads and heartbeat watch cover these.
+CANOPEN_KINDS: tuple[str, ...] = tuple(s.kind for s in REGISTRY if s.canopen)
 
 
 def board(name: str) -> tuple[BoardSpec, BoardInstance]:
@@ -213,7 +239,7 @@ def nodes_of_kind(kind: str) -> dict[str, int]:
 #: * ``full``: every board of the registry (Fig. 5's "over sixteen" once all kinds exist).
 #: Kind of the host's own node (the PC's USB-HID gateway, paper §3.4): on every network, an
 #: explicit list included.
-HOST_NODE_KIND = "usb_gateway"
+HOST_NODE_KIND = GATEWAY_KIND
 NETWORK_KINDS: dict[str, tuple[str, ...] | None] = {
     "basic": ("axis_controller", "position_reader", "focus_controller", "usb_gateway"),
     "lab": ("axis_controller", "position_reader", "tachometer", "display", "usb_gateway"),
@@ -272,7 +298,7 @@ def network_nodes(network: str | list | tuple) -> tuple[int, ...]:
         As :func:`network_boards`.
     """
     return tuple(int(BOARDS[n][1].node_id) for n in network_boards(network)
-                 if getattr(BOARDS[n][0].firmware, "CANOPEN_KIND", "") and BOARDS[n][1].node_id != P.NodeId.HOST)
+                 if BOARDS[n][0].canopen and BOARDS[n][1].node_id != P.NodeId.HOST)
 
 
-assert all(issubclass(s.firmware, Board) for s in REGISTRY)
+assert all(issubclass(s.firmware, Firmware) for s in REGISTRY)

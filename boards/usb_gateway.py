@@ -9,8 +9,9 @@ PC sees and the limits: docs/usb-gateway.md.
 
 Execution model (simulated time; the USB host's frame event drives the USB side):
 
-* CAN receive interrupt (``schmidt-sim``) or, on a bus without one, a poll at every 1 ms SOF:
-  the frame is stamped (µs since boot) and appended to the CAN→PC queue of
+* CAN receive interrupt (``schmidt-sim``) or, on a bus without one, a poll at every 1 ms SOF
+  that takes every waiting frame (it stands in for the interrupts of the last ms): the frame is
+  stamped (µs since boot) and appended to the CAN→PC queue of
   :data:`RX_QUEUE_FRAMES`; a frame arriving at a full queue is dropped, counted in
   ``rx_dropped`` and flagged (``RX_OVERFLOW``) in the next IN report, as a real gateway does.
 * In its start-of-frame interrupt (every 1 ms), if the IN endpoint is free and the queue holds
@@ -31,7 +32,8 @@ controller the other PIC boards of the emulator use), modelled by
 Not modelled: USB enumeration (configured at power-on), the MCP2515's three transmit buffers
 (frames go straight to the bus's queue; at ≤ 4 frames per ms the 1 Mbit/s bus keeps up unless
 others load it above ≈ 50 %), SPI transfer time, remote and extended frames (counted in
-``rx_unsupported`` and not forwarded; the report layout carries 11-bit data frames only).
+``rx_unsupported`` and not forwarded, as are frames of more than 8 data bytes a fuzzer hands the
+receive path; the report layout carries 11-bit data frames of 0..8 bytes only).
 """
 
 from __future__ import annotations
@@ -41,23 +43,28 @@ from typing import Deque, Optional
 
 import can
 
+from boards.firmware_base import Firmware
 from boards.peripherals import FILTER_BEFORE_QUEUE_BUSES, CanController
 from boards.usb_hid import UsbHidInterface
 from bus import hid_reports as R
 from bus import protocol as proto
 from bus.scheduler import Scheduler
 
-__all__ = ["UsbGateway", "RX_QUEUE_FRAMES", "RESET_CAUSES"]
+__all__ = ["UsbGateway", "RX_QUEUE_FRAMES"]
 
 #: CAN→PC queue depth, frames (assumed: 32 slots of 15 bytes = 480 B of the PIC18F4550's 2 KB
 #: RAM, beside 1 KB of USB buffer RAM; 8 ms of the 4-frames-per-ms USB rate).
 RX_QUEUE_FRAMES = 32
-RESET_CAUSES = ("power_on", "watchdog", "software")
 _U32 = (1 << 32) - 1
 
 
-class UsbGateway:
-    """The USB-HID CAN gateway board.
+class UsbGateway(Firmware):
+    """The USB-HID CAN gateway board (reset and power switch: :class:`boards.firmware_base.Firmware`).
+
+    It has no CANopen device of its own (``CANOPEN_KIND = ""``): it is a transparent bridge,
+    and node 0x10's CANopen roles (NMT master, SDO client, heartbeat producer, STOP_ALL
+    TPDO1; ``bus/eds/host.eds``) are the PC's software, whose frames it carries. So it answers
+    no SDO and sends no heartbeat or EMCY; its diagnostics are the status feature report.
 
     Parameters
     ----------
@@ -93,7 +100,13 @@ class UsbGateway:
         self.node_id = int(node_id)
         self.name = name
         self.rx_queue_frames = int(rx_queue_frames)
-        self.can = CanController(bus, rx_buffers=2)
+        # The firmware takes each frame in the MCP2515's receive interrupt (2 buffers). On a bus
+        # that cannot raise it at each frame's end (python-can virtual, socketcan) the 1 ms SOF
+        # poll stands in for the interrupts of the last millisecond, so it takes every waiting
+        # frame: a 2-buffer limit there would be an artefact of the emulation, not the board's
+        # (the health check's five SDO answers within 1 ms were lost to it).
+        has_irq = hasattr(bus, "set_rx_callback")
+        self.can = CanController(bus, rx_buffers=2 if has_irq else 1 << 30)
         self.can.accept = self._accept
         self.can.on_rx = self._on_can_rx
         self.usb = usb if usb is not None else UsbHidInterface()
@@ -102,6 +115,7 @@ class UsbGateway:
         self.usb.on_out = self._on_out
         self.usb.on_get_feature = self._get_feature
         self.usb.on_set_feature = self._set_feature
+        self.usb.firmware_idle = self._idle
         self.reset_cause = "power_on"   # survives resets (RCON)
         self.reset_count = 0
         self.started = False
@@ -115,6 +129,12 @@ class UsbGateway:
         self._pending_flags = 0
         self.in_seq = 0
         self._hw_overruns_seen = 0
+        self._armed_ts: list = []        # timestamps of the frames in the armed IN report
+        # CAN → PC latency of the frames the PC took (emulator instrumentation for the report,
+        # not in the status report; CLEAR_COUNTERS keeps them)
+        self.latency_frames = 0
+        self.latency_sum_us = 0
+        self.latency_max_us = 0
         self._clear_counters()
 
     def _clear_counters(self) -> None:
@@ -135,6 +155,21 @@ class UsbGateway:
         """Malformed OUT reports and commands (the name every board's report row uses)."""
         return self.out_malformed
 
+    def report_counters(self) -> dict:
+        """The status report's counters (:meth:`status`) and the CAN → PC latency of the frames
+        the PC took (µs from the frame's end on CAN to the USB host taking its IN report), for
+        the report's board row."""
+        st = self.status()
+        n = self.latency_frames
+        return {"rx_frames": st.rx_frames, "rx_dropped": st.rx_dropped, "rx_unsupported": self.rx_unsupported,
+                "tx_frames": st.tx_frames, "tx_errors": st.tx_errors, "in_reports": st.in_reports,
+                "out_reports": st.out_reports, "out_malformed": st.out_malformed,
+                "last_malformed": R.MalformedReason(st.last_malformed).name.lower(),
+                "queue_depth": st.queue_depth, "queue_high_water": st.queue_high_water,
+                "hw_overruns": st.hw_overruns, "flags_seen": st.flags,
+                "can_to_pc_latency_us": {"frames": n, "mean": round(self.latency_sum_us / n, 1) if n else None,
+                                         "max": self.latency_max_us if n else None}}
+
     @property
     def queue_level(self) -> int:
         """Frames waiting in the CAN→PC queue."""
@@ -150,31 +185,18 @@ class UsbGateway:
         self.usb.attach()
         self.usb.arm_out()
 
-    def reset(self, cause: str = "power_on") -> None:
-        """Processor reset: queue, filters and counters cleared; a running gateway boots again.
-
-        Parameters
-        ----------
-        cause : {"power_on", "watchdog", "software"}
-        """
-        if cause not in RESET_CAUSES:
-            raise ValueError(f"reset cause must be one of {list(RESET_CAUSES)}, got {cause!r}")
-        was_running = self.started
+    def _hardware_reset(self) -> None:
+        """CAN controller and USB module to their reset state (reset and power-off: the USB
+        device disappears from the PC until :meth:`start`). A processor reset
+        (:meth:`Firmware.reset`) also clears the queue, the filters and the counters."""
         self.can.reset()
         self.usb.reset()
-        self.reset_cause = cause
-        self.reset_count += 1
-        self.started = False
-        self._init_state()
-        if was_running:
-            self.start()
 
-    def power_off(self) -> None:
-        """Unplug: the USB device disappears, nothing is sent or received until :meth:`start`."""
-        self.can.reset()
-        self.usb.detach()
-        self.started = False
-        self.reset_cause = "power_on"
+    @property
+    def status_name(self) -> str:
+        """``"CONFIGURED"`` while the PC sees the USB device (USB 2.0 §9.1 device state),
+        ``"OFF"`` before :meth:`start` and after :meth:`power_off`."""
+        return "CONFIGURED" if self.usb.configured else "OFF"
 
     # ------------------------------------------------------------------ CAN side
     def _accept(self, arbitration_id: int) -> bool:
@@ -188,18 +210,26 @@ class UsbGateway:
                          for f in self.filters] or None)
 
     def _on_can_rx(self, msg: can.Message) -> None:
-        if msg.is_remote_frame or msg.is_extended_id or msg.is_error_frame or msg.is_fd:
+        if (msg.is_remote_frame or msg.is_extended_id or msg.is_error_frame or msg.is_fd
+                or len(msg.data) > 8):          # (> 8 bytes: found by the fuzzer, host/fuzz.py)
             self.rx_unsupported += 1
             return
-        if len(self._queue) >= self.rx_queue_frames:
+        q = self._queue
+        if not q:                           # the USB host may be idle only with an empty queue
+            self.usb.wake(False)
+        if len(q) >= self.rx_queue_frames:
             self.rx_dropped += 1
             self._raise(R.InFlags.RX_OVERFLOW)
             return
-        now = self.scheduler.now_us
-        self._queue.append((msg.arbitration_id, bytes(msg.data), (now - self.boot_us) & _U32))
+        q.append((msg.arbitration_id, bytes(msg.data), (self.scheduler.now_us - self.boot_us) & _U32))
         self.rx_frames += 1
-        if len(self._queue) > self.queue_high_water:
-            self.queue_high_water = len(self._queue)
+        if len(q) > self.queue_high_water:
+            self.queue_high_water = len(q)
+
+    def _idle(self) -> bool:
+        """The SOF interrupt has nothing to do: receive interrupt on, queue empty, no flags."""
+        return (self.can.interrupt_enabled and not self._queue and not self._pending_flags
+                and self.can.rx_overflows == self._hw_overruns_seen)
 
     def _raise(self, flag: int) -> None:
         self._pending_flags |= flag
@@ -212,6 +242,7 @@ class UsbGateway:
             return
         q = self._queue
         frames = [q.popleft() for _ in range(min(R.FRAMES_PER_REPORT, len(q)))]
+        self._armed_ts = [f[2] for f in frames]
         usb.arm_in(R.encode_report(R.KIND_IN, frames, self._pending_flags, self.in_seq))
         self._pending_flags = 0
         self.in_seq = (self.in_seq + 1) & 0xFF
@@ -226,6 +257,13 @@ class UsbGateway:
 
     def _in_done(self, now_us: int) -> None:
         self.in_reports += 1
+        if self._armed_ts:
+            up = now_us - self.boot_us
+            lat = [(up - ts) & _U32 for ts in self._armed_ts]
+            self._armed_ts = []
+            self.latency_frames += len(lat)
+            self.latency_sum_us += sum(lat)
+            self.latency_max_us = max(self.latency_max_us, *lat)
 
     def _malformed(self, reason: int) -> None:
         self.out_malformed += 1
@@ -266,6 +304,7 @@ class UsbGateway:
             cmd = R.decode_command(report)
         except R.ReportError as exc:
             self._malformed(exc.reason)
+            self.usb.wake(True)                 # the OUT_MALFORMED flag goes in the next IN report
             return False
         if cmd.cmd == R.CMD_SET_FILTERS:
             self.filters = cmd.filters

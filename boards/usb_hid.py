@@ -83,6 +83,10 @@ class UsbHidInterface:
         self.on_out: Optional[Callable[[bytes, int], None]] = None
         self.on_get_feature: Optional[Callable[[], bytes]] = None
         self.on_set_feature: Optional[Callable[[bytes], bool]] = None
+        #: firmware: true when its SOF interrupt has nothing to do (None: never idle)
+        self.firmware_idle: Optional[Callable[[], bool]] = None
+        #: set by the host port: ``on_wake(after_now)`` restarts its frame event
+        self.on_wake: Optional[Callable[[bool], None]] = None
         self.reset()
 
     def reset(self) -> None:
@@ -124,7 +128,24 @@ class UsbHidInterface:
         """Give the OUT endpoint buffer back to the interface: the next OUT report is accepted."""
         self.out_armed = True
 
+    def wake(self, after_now: bool) -> None:
+        """Firmware: something for the host may come at the next frame (a CAN frame queued:
+        ``after_now=False``; a host-side request: True). See ``bus.usb_link`` (idle frames)."""
+        if self.on_wake is not None:
+            self.on_wake(after_now)
+
     # -- host side (called by bus.usb_link.UsbHostPort) -------------------------------------------
+    def host_idle(self) -> bool:
+        """True when a frame would change nothing but the NAK counter: not configured, or no IN
+        report armed and the firmware's SOF idle."""
+        if not self.configured:
+            return True
+        return self._in is None and self.firmware_idle is not None and self.firmware_idle()
+
+    def host_idle_frames(self, n: int) -> None:
+        """``n`` frames the host did not run because the device was idle: their IN tokens NAKed."""
+        self.in_naks += n
+
     def host_sof(self, now_us: int) -> None:
         """Start of a 1 ms frame."""
         if self.configured and self.on_sof is not None:

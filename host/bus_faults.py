@@ -59,7 +59,7 @@ def bus_off(tel, now_us, *, board, auto_recover=False):
 
 
 def host_loss(tel, now_us, *, duration_s=None):
-    return tel.network.inject_errors(kind="loss", sender=tel.client.bus, start_us=now_us,
+    return tel.network.inject_errors(kind="loss", sender=tel.host_can_bus, start_us=now_us,
                                      end_us=_end(now_us, duration_s))
 
 

@@ -42,8 +42,9 @@ TACH_MOTOR_OF_NODE = {int(i.node_id): (i.axis, i.motor) for s in REGISTRY if s.k
                       for i in s.instances}
 AUX_AXIS_OF_NODE = {int(i.node_id): i.axis for s in REGISTRY if s.kind == "aux_encoder" for i in s.instances}
 _READER_AXIS = {node: axis for axis, node in READER_NODES.items()}
-#: EDS (board kind) of each node: what the host's SDO client reads it with.
-_EDS_OF_NODE = {int(i.node_id): s.firmware.CANOPEN_KIND for s in REGISTRY for i in s.instances}
+#: EDS (board kind) of each CANopen node: what the host's SDO client reads it with (the USB
+#: gateway, the host's own node, has none).
+_EDS_OF_NODE = {int(i.node_id): s.firmware.CANOPEN_KIND for s in REGISTRY if s.canopen for i in s.instances}
 
 
 def _node_name(node: int) -> str:
@@ -227,6 +228,9 @@ class HostClient:
     advance: Callable[[int], None] | None = None
     arcsec_per_count: dict = field(default_factory=dict)
 
+    #: The assembly (:func:`host.network.build_network`) gives this host the bus of the USB-HID
+    #: gateway (:class:`host.gateway_bus.HidGatewayBus`), as the paper's PC had (§3.4).
+    THROUGH_GATEWAY = True
     BOOT_US = 20_000       #: wait after power-on before the health check [µs] (assumed)
     POWER_ON_US = 100_000  #: time the boards have to answer the health check's SDO [µs] (assumed)
     HEARTBEAT_US = 1_000_000   #: the host's CiA heartbeat period [µs] (its EDS 0x1017, 1000 ms)

@@ -16,7 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from boards.registry import BOARDS
+from boards.registry import BOARDS, CANOPEN_KINDS
 from boards.registry import board as registry_board
 
 __all__ = ["FaultKind", "FAULTS", "FAULT_KINDS", "FAULT_PARAMS", "check_fault", "inject"]
@@ -109,7 +109,9 @@ _WINDOW = ("ids", "probability", "count", "duration_s")
 FAULTS: dict[str, FaultKind] = {
     "endat_bit_flip": FaultKind(_endat_bit_flip, ("position_reader",), allows=("bit",),
                                 doc="flip one bit of the next EnDat transfer (CRC error, counted)"),
-    "malformed_frame": FaultKind(_malformed_frame, doc="the host sends the board a short frame with a wrong device type"),
+    # not the USB gateway: it decodes no CAN frames (its malformed input is an OUT report)
+    "malformed_frame": FaultKind(_malformed_frame, CANOPEN_KINDS,
+                                 doc="the host sends the board a short frame with a wrong device type"),
     "board_reset": FaultKind(_board_reset, doc="watchdog reset: the board boots again"),
     "remove_board": FaultKind(_remove_board, doc="power the board off for the rest of the run"),
     "focus_stall": FaultKind(_focus_stall, ("focus_controller",), needs=("halfsteps",), allows=("halfsteps",),

@@ -247,7 +247,8 @@ def run_fuzz(frames: int, seed: int = 0, *, stop_every: int = 20_000,
         # STOP_ALL and SLEW go from a node of their own: behind the fuzzer's own FIFO they would
         # measure the fuzzer's queue, not the boards
         commander = SimBus(network=tel.network, name="fuzz-host")
-        fault_ids = {P.emcy_cob_id(b.node_id) for b in tel.boards.values()}
+        fault_ids = {P.emcy_cob_id(b.node_id) for b in tel.boards.values()
+                     if b.CANOPEN_KIND}      # not the USB gateway: it sends no EMCY
 
         def count_faults(msg) -> None:     # EMCY frames on the wire, by fault code (cumulative)
             if msg.arbitration_id in fault_ids and len(msg.data) == 8:
@@ -315,7 +316,7 @@ def run_fuzz(frames: int, seed: int = 0, *, stop_every: int = 20_000,
         for name, b in tel.boards.items():
             # board counters restart at each reset: these are since the last one
             res.malformed_frames[name] = b.malformed_frames
-            res.refused_commands[name] = b.refused_commands
+            res.refused_commands[name] = getattr(b, "refused_commands", 0)   # 0: the gateway
             res.board_resets[name] = b.reset_count
     finally:
         tel.close()

@@ -48,7 +48,16 @@ class HidGatewayBus(can.BusABC):
         self.malformed_reports = 0
         self.lost_reports = 0
         self.flags_seen = 0
+        if hasattr(device, "set_report_callback"):    # the in-process device (host/hid_device.py)
+            self.set_rx_callback = self._set_rx_callback
         super().__init__(channel=channel, **kwargs)
+
+    def _set_rx_callback(self, callback) -> None:
+        """``callback()`` after each IN report the USB host takes (only on a device with
+        ``set_report_callback``, i.e. the in-process one): the reader drains with ``recv(0)``
+        in the 1 ms frame the report arrives instead of polling (``host.client.HostClient``
+        uses it when the bus has it)."""
+        self.device.set_report_callback(callback)
 
     # -- transmit ------------------------------------------------------------------------------
     @staticmethod

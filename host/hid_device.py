@@ -137,9 +137,18 @@ class device:  # noqa: N801 - the name hidapi uses
         d.open_count += 1
         d.port.open()
 
+    def set_report_callback(self, callback: Optional[Callable[[], None]]) -> None:
+        """Call ``callback()`` each time the USB host buffers an IN report for this device (not
+        in hidapi: the in-process stand-in for a PC thread blocked in ``read``, so a reader
+        inside the simulation takes each report in the 1 ms frame it arrives, without a poll
+        event of its own). ``None`` removes it; :meth:`close` does too."""
+        self._dev().port.on_buffered = callback
+
     def close(self) -> None:
         """Close; the host stops polling when the last handle is closed."""
         if self._d is not None:
+            if self._d.port.on_buffered is not None:
+                self._d.port.on_buffered = None
             self._d.open_count -= 1
             if self._d.open_count <= 0:
                 self._d.port.close()

@@ -53,6 +53,9 @@ class BusMonitor(HostClient):
     """
 
     on_frame: Callable[[can.Message], None] | None = None
+    #: a listener on the CAN bus itself, not the PC behind the USB gateway (the gateway is left
+    #: unpowered: docs/usb-gateway.md)
+    THROUGH_GATEWAY = False
 
     def __post_init__(self) -> None:
         super().__post_init__()

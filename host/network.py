@@ -24,12 +24,20 @@ Decisions written down here:
   link's receive callback once per packet (no per-byte or per-sample events).
 * **Focus encoder**: the focus firmware's QEI reads ``FocusPlant.motor_encoder_counts`` and is
   told the parameter file's counts per revolution.
-* **Room nodes** (issue 12: display, dome, weather): built only when named
-  (``build_network(..., boards=[...])``; the registry's ``default`` flag, until networks by
-  name replace it). The dome's plant is :class:`plant.dome.DomePlant`, the weather station reads
+* **Room nodes** (issue 12: display, dome, weather): on the networks that name them (``full``,
+  or a list; ``build_network(..., boards=[...])`` overrides the scenario's network). The dome's plant is :class:`plant.dome.DomePlant`, the weather station reads
   :class:`plant.weather.WeatherModel` (seed: the scenario's ``weather.seed`` or ``seed``; its
   scripted ``weather.events``), the display writes to :class:`host.logs.DisplayLog`
   (``display.log``). The room nodes have no RS232 telemetry layout, so no serial link.
+* **The host's path** (paper §3.4): the commanding host client talks to the bus through the
+  USB-HID gateway, a board of the registry (kind ``usb_gateway``, node 0x10): its USB side is
+  plugged into a private simulated USB host (:class:`host.hid_device.SimUsb`), a
+  :class:`host.hid_device.device` is opened on it and the client's bus is a
+  :class:`host.gateway_bus.HidGatewayBus` over that device. So frames reach the client at the
+  next 1 ms USB frame and its commands leave at the next one (docs/usb-gateway.md). A host class
+  with ``THROUGH_GATEWAY = False`` (the passive :class:`host.monitor.BusMonitor` of ``serve``, a
+  listener on the CAN bus) gets a CAN bus handle of its own, and the gateway stays unpowered
+  (bus-powered from the PC's USB, which ``serve`` does not have).
 * **Reports read what ran**: :meth:`Telescope.plant_summary` reads the plants (their friction
   after effects, their parameters), :meth:`Telescope.controller_summary` and
   :meth:`Telescope.board_summary` read the boards; nothing reads the input files again.
@@ -48,18 +56,21 @@ import can
 import bus as _bus_pkg  # noqa: F401  (registers the schmidt-sim python-can interface)
 from boards.axis_controller import PRESET_RATES_ARCSEC_S, AxisMode
 from boards.peripherals import Adc
-from boards.registry import BOARD_NAMES, BOARDS, BoardInstance, network_boards
+from boards.registry import BOARD_NAMES, BOARDS, GATEWAY_KIND, BoardInstance, network_boards
 from boards.tuning import GAINS_SOURCE, design_axis_gains
+from boards.usb_hid import PRODUCT_ID, VENDOR_ID
 from bus import protocol as P
-from bus import telemetry as _tlm
+from bus import telemetry as T
 from bus.network import CanNetwork
 from bus.scheduler import PRIO_PLANT, Scheduler
 from bus.serial_link import SerialLink
 from bus.telemetry import SAMPLE_FIELDS
 from bus.units import TICK_US
 from host import faults as _faults
+from host import hid_device
 from host.client import HostClient
 from host.logs import DisplayLog
+from host.gateway_bus import HidGatewayBus
 from host.rs232 import Rs232Hub
 from host.scenario import Scenario, resolve_parameters
 from plant.axis import AxisPlant
@@ -109,6 +120,8 @@ class Telescope:
     dome_plant: DomePlant | None = None          # issue 12, room nodes
     weather: WeatherModel | None = None
     display_log: DisplayLog | None = None
+    #: the USB host port of the gateway the client talks through (None: a direct host)
+    usb_port: object = None
     _can_snapshot: dict = field(default_factory=dict, repr=False)   # CAN registers at close()
     network_name: str = "basic"     #: the scenario's ``network`` (a name, or "custom" for a list)
 
@@ -125,6 +138,12 @@ class Telescope:
     def inject_fault(self, fault, now_us: int) -> None:
         """Apply one scenario fault (the table :data:`host.faults.FAULTS`)."""
         _faults.inject(self, fault, now_us)
+
+    @property
+    def host_can_bus(self) -> can.BusABC:
+        """The CAN bus handle of the host's node: the USB gateway's when the client talks
+        through it, else the client's own (a fault on "the host's frames" acts on this one)."""
+        return self.boards[_GATEWAY].can.bus if self.usb_port is not None else self.client.bus
 
     def axis_board(self, axis: str):
         """The axis controller of ``axis`` (``"ra"``/``"dec"``)."""
@@ -182,11 +201,14 @@ class Telescope:
         for name, b in self.boards.items():
             d = {"node": b.node_id, "malformed_frames": b.malformed_frames,
                  # the host's view first: a board whose heartbeat stopped is LOST whatever it was
-                 "state": "LOST" if b.node_id in self.client.lost else b.device.state,
-                 "emcy_sent": b.device.emcy.sent,
-                 "reset_cause": b.reset_cause, "resets": b.reset_count,
-                 "can": self._can_snapshot.get(name) or _can_registers(b)}
+                 "state": "LOST" if b.node_id in self.client.lost else b.status_name}
+            if getattr(b, "device", None) is not None:       # a CANopen board (not the gateway)
+                d["emcy_sent"] = b.device.emcy.sent
+            d.update({"reset_cause": b.reset_cause, "resets": b.reset_count,
+                      "can": self._can_snapshot.get(name) or _can_registers(b)})
             d.update(b.report_counters())
+            if name == _GATEWAY and self.usb_port is not None:   # the PC's side of the USB link
+                d["usb_host"] = self.usb_port.counters()
             if BOARDS[name][0].kind == "focus_controller":   # the plant's truth beside the firmware's count
                 d["plant_lost_halfsteps"] = self.focus_plant.lost_halfsteps
             if b.uart is not None:
@@ -239,6 +261,7 @@ class Telescope:
 
 
 _AXIS_BOARD = {i.axis: name for name, (s, i) in BOARDS.items() if s.kind == "axis_controller"}
+_GATEWAY = next(name for name, (s, i) in BOARDS.items() if s.kind == GATEWAY_KIND)
 
 
 def _can_registers(board) -> dict:
@@ -434,34 +457,27 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient,
 
     sched.call_every(PLANT_PERIOD_US, plant_tick, start_us=0, priority=PRIO_PLANT, owner="plant")
 
-    # the boards of the scenario's network (boards.registry.NETWORKS; default basic), node order
+    # the boards of the scenario's network (boards.registry.NETWORKS; default basic), node order;
+    # the host's own node, the USB-HID gateway, is on every network
     chosen = network_boards(scenario.network if boards is None else list(boards))
     network_name = scenario.network_name if boards is None else "custom"
     # the host's health check expects every chosen CANopen board (not the host's own node)
     expected = tuple(int(BOARDS[n][1].node_id) for n in chosen
-                     if getattr(BOARDS[n][0].firmware, "CANOPEN_KIND", "") and BOARDS[n][1].node_id != P.NodeId.HOST)
+                     if BOARDS[n][0].canopen and BOARDS[n][1].node_id != P.NodeId.HOST)
     # (registry.network_nodes is the same rule on the registry's table; BOARDS here may be patched)
 
-    # host first, so it hears the boards' boot heartbeats
+    # a direct host first, so it hears the boards' boot heartbeats (through the gateway, the
+    # gateway's CAN handle is made with the boards and started before them)
+    via_gateway = getattr(host_cls, "THROUGH_GATEWAY", True) and _GATEWAY in chosen
+    host_bus = None if via_gateway else new_bus()
     boards: dict = {}
-    adc = Adc({})
-    shunt = params.axes["ra"].motor.shunt_ohm
-    preset = {(AxisMode.NAMES[m].lower(), axis): rates[i] for m, rates in PRESET_RATES_ARCSEC_S.items()
-              for i, axis in enumerate(AXES)}
-    client = host_cls(
-        bus=new_bus(), scheduler=sched, preset_rates_arcsec_s=preset, expected_nodes=expected,
-        # the duty-speed map with the counter fraction the axis firmware runs
-        open_loop_duty=lambda rate, axis: open_loop_duty(rate, params.axes[axis],
-                                                         boards[_AXIS_BOARD[axis]].counter_fraction),
-        adc_to_current_a=lambda c: adc.to_volts(c) / shunt,
-    )
 
-    # RS232 telemetry: one point-to-point link per board, the far ends on the host's hub
+    # RS232 telemetry: one point-to-point link per board that has it (bus.telemetry: the PI,
+    # position and focus boards of the §3.4 set-up), the far ends on the host's hub
     rs = scenario.rs232
     hub = Rs232Hub(sched, rs.baud) if rs.enabled else None
-    # §3.4: the RS232 set-up had the PI, position and focus boards (the kinds with telemetry samples)
-    rs_names = [n for n in chosen if int(BOARDS[n][0].device_type) in _tlm.SAMPLE_FIELDS]
-    links = {name: SerialLink(sched, baud=rs.baud, name=f"rs232-{name}") for name in rs_names} if hub else {}
+    tlm_boards = [n for n in chosen if int(BOARDS[n][0].device_type) in T.SAMPLE_FIELDS]
+    links = {name: SerialLink(sched, baud=rs.baud, name=f"rs232-{name}") for name in tlm_boards} if hub else {}
 
     build = _Build(scenario, sched, params, plants, focus_plant, {}, dome_plant, weather, display_log)
     for name in chosen:
@@ -470,20 +486,45 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient,
         kwargs.update(SETTINGS.get(spec.kind, lambda b, i: {})(build, inst))
         boards[name] = spec.firmware(sched, new_bus(), inst.node_id, name=name,
                                      serial_port=links[name].a if name in links else None, **kwargs)
-    client.arcsec_per_count = {axis: boards[_AXIS_BOARD[axis]].arcsec_per_count for axis in AXES}
+    if hub is not None:
+        for name in tlm_boards:
+            hub.add_port(links[name].b, name, boards[name].node_id)
+    gateway = boards.get(_GATEWAY)
+    if via_gateway:
+        gateway.start()        # first, so that it hears the boards' boot-up messages
+    for b in boards.values():
+        if b is not gateway:
+            b.start()
+    usb_port = None
+    if via_gateway:
+        # the PC's USB host: the client reads inside scheduler callbacks (advance=None) and is
+        # woken by each IN report (no poll event of its own)
+        usb = hid_device.SimUsb()
+        usb_port = usb.plug(gateway, advance=None)
+        dev = hid_device.device(usb=usb)
+        dev.open(VENDOR_ID, PRODUCT_ID)
+        host_bus = HidGatewayBus(dev)
+        buses.append(host_bus)
+
+    adc = Adc({})
+    shunt = params.axes["ra"].motor.shunt_ohm
+    preset = {(AxisMode.NAMES[m].lower(), axis): rates[i] for m, rates in PRESET_RATES_ARCSEC_S.items()
+              for i, axis in enumerate(AXES)}
+    client = host_cls(
+        bus=host_bus, scheduler=sched, preset_rates_arcsec_s=preset, expected_nodes=expected,
+        # the duty-speed map with the counter fraction the axis firmware runs
+        open_loop_duty=lambda rate, axis: open_loop_duty(rate, params.axes[axis],
+                                                         boards[_AXIS_BOARD[axis]].counter_fraction),
+        adc_to_current_a=lambda c: adc.to_volts(c) / shunt,
+        arcsec_per_count={axis: boards[_AXIS_BOARD[axis]].arcsec_per_count for axis in AXES},
+    )
     # issue 12: resolutions of the tachometers and auxiliary encoders that run (maintenance quantities)
     client.configure_maintenance(
         tach_counts_per_rev={int(b.node_id): b.counts_per_rev for n, b in boards.items()
                              if BOARDS[n][0].kind == "tachometer"},
         aux_arcsec_per_count={int(b.node_id): b.arcsec_per_count for n, b in boards.items()
                               if BOARDS[n][0].kind == "aux_encoder"})
-    if hub is not None:
-        for name in links:
-            hub.add_port(links[name].b, name, boards[name].node_id)
-    for b in boards.values():
-        b.start()
     return Telescope(scenario=scenario, scheduler=sched, params=params, network=network, plants=plants,
                      focus_plant=focus_plant, boards=boards, client=client, gains=build.gains, buses=buses,
                      hub=hub, serial_links=links, dome_plant=dome_plant, weather=weather,
-                     display_log=display_log,
-                     network_name=network_name)
+                     display_log=display_log, network_name=network_name, usb_port=usb_port)

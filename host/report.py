@@ -295,6 +295,7 @@ def _markdown(r: dict) -> str:
         for name, b in r["boards"].items():
             lines.append(f"| {name} | {b.get('malformed_frames', 0)} | {b.get('crc_errors', '–')} | {b.get('state', '')} |")
         lines.append("")
+        lines += _gateway_table(r["boards"])
         idents = {n: b for n, b in r["boards"].items() if b.get("identity")}
         if idents:
             lines += ["Identity and parameters read back by SDO at power-on (docs/canopen.md):", "",
@@ -345,6 +346,27 @@ def _maintenance(r: dict) -> list[str]:
             out.append(f"| {a} | {v['frames']} | {v['compared']} | {v.get('mean_arcsec', '–')} | "
                        f"{v.get('rms_arcsec', '–')} | {v.get('max_abs_arcsec', '–')} |")
     return out + [""]
+def _gateway_table(boards: dict) -> list[str]:
+    """report.md section: the USB-HID gateway's counters (the host's path, docs/usb-gateway.md),
+    for each board row that has them."""
+    out = []
+    for name, b in boards.items():
+        if "can_to_pc_latency_us" not in b:
+            continue
+        lat, usb = b["can_to_pc_latency_us"], b.get("usb_host") or {}
+        wait = usb.get("out_wait_us") or {}
+
+        def us(v):
+            return "–" if v is None else f"{v:g}"
+
+        out += [f"USB-HID gateway `{name}` (the host's node; docs/usb-gateway.md):", "",
+                "| CAN → PC frames | dropped (queue full) | queue high water / depth | CAN → PC latency mean / max (µs) "
+                "| PC → CAN frames | OUT reports refused | OUT wait mean / max (µs) | CAN errors (tx) |",
+                "|---:|---:|---:|---:|---:|---:|---:|---:|",
+                f"| {b['rx_frames']} | {b['rx_dropped']} | {b['queue_high_water']} / {b['queue_depth']} | "
+                f"{us(lat['mean'])} / {us(lat['max'])} | {b['tx_frames']} | {b['out_malformed']} | "
+                f"{us(wait.get('mean'))} / {us(wait.get('max'))} | {b['tx_errors']} |", ""]
+    return out
 
 
 def _fine_table(r: dict) -> list[str]:

@@ -23,7 +23,7 @@ from typing import Callable
 
 import can
 
-from boards.registry import BOARDS, network_boards
+from boards.registry import BOARDS, GATEWAY_KIND, network_boards
 from bus import protocol as P
 from bus.errors import BusError, SimulationError
 from bus.units import ARCSEC_PER_RAD
@@ -66,7 +66,8 @@ def serve_scenario(scenario: Scenario, channel: str | None = None) -> Scenario:
 def served_interface(network="basic") -> list[dict]:
     """What the emulated boards offer on the bus, per board in node order: node id, the COB-IDs
     it sends and the COB-IDs a host sends to it (from the board registry, :mod:`boards.registry`),
-    for the boards of ``network`` (a scenario's ``network``: name or list of boards).
+    for the boards of ``network`` (a scenario's ``network``: name or list of boards). Not the
+    USB gateway: it is the host's node, unpowered in ``serve`` (your program is the host).
 
     Returns
     -------
@@ -75,7 +76,8 @@ def served_interface(network="basic") -> list[dict]:
     """
     return [{"board": name, "node": int(inst.node_id), "sends": spec.sends(inst.node_id),
              "listens": spec.accepts(inst.node_id)}
-            for name, (spec, inst) in ((n, BOARDS[n]) for n in network_boards(network))]
+            for name, (spec, inst) in ((n, BOARDS[n]) for n in network_boards(network))
+            if spec.kind != GATEWAY_KIND]
 
 
 class ServeSession(Session):

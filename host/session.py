@@ -136,11 +136,18 @@ class Session:
                                   owner=f"fault:{f.kind}")
 
     def start_sampling(self, owner: str, hook: Callable[[int], None] | None = None) -> None:
-        """Sample every 10 ms (phase 5 ms): ``hook(now_us)``, then a ``sensor.log`` row at the
-        scenario's log rate."""
+        """Sample every 10 ms at phase 5 ms of the 10 ms grid of simulated time (the boards'
+        10 ms frames are sent on it): ``hook(now_us)``, then a ``sensor.log`` row at the
+        scenario's log rate. The first sample is the first such instant after now (the power-on
+        through the USB gateway ends off the 10 ms grid: its SDO reads take one USB frame each
+        way)."""
         if hook is not None:
             self._sample_hooks.append(hook)
-        self.scheduler.call_every(SAMPLE_PERIOD_US, self._sample, start_us=self.scheduler.now_us + SAMPLE_PHASE_US,
+        now = self.scheduler.now_us
+        start = now // SAMPLE_PERIOD_US * SAMPLE_PERIOD_US + SAMPLE_PHASE_US
+        if start <= now:
+            start += SAMPLE_PERIOD_US
+        self.scheduler.call_every(SAMPLE_PERIOD_US, self._sample, start_us=start,
                                   priority=PRIO_HOST, owner=owner)
 
     def _sample(self, now_us: int) -> None:

@@ -2,7 +2,8 @@
 
 ``python -m host.uhid_gateway`` builds the five boards and the plant on the in-process bus
 (:func:`host.network.build_network`, the host node a passive :class:`host.monitor.BusMonitor`),
-puts the gateway firmware (:class:`boards.usb_gateway.UsbGateway`) on that bus as the PC's node,
+powers the network's gateway board (:class:`boards.usb_gateway.UsbGateway`, registry name ``gateway``; a
+passive host leaves it unpowered) as the PC's node,
 and creates a HID device with ``/dev/uhid`` (``UHID_CREATE2``: USB bus, the gateway's vendor and
 product id, its report descriptor). The kernel's hid-generic driver binds it and makes a
 ``/dev/hidrawN``; an unmodified program using hidapi (hidraw backend) or raw hidraw opens it as
@@ -144,14 +145,17 @@ class UhidGateway:
     """
 
     def __init__(self, telescope, uhid: Uhid) -> None:
-        from bus.simbus import SimBus
+        from boards.registry import GATEWAY_KIND, nodes_of_kind
 
         if telescope.network is None:
             raise SchmidtFilError("the uhid gateway needs the in-process bus (scenario bus.interface: sim)")
         self.tel = telescope
         self.sched = telescope.scheduler
-        self.bus = SimBus(network=telescope.network, name="usb-gateway")
-        self.gateway = UsbGateway(self.sched, self.bus)
+        # the network's own gateway board (registry kind usb_gateway), left unpowered by a
+        # passive host; plugging it into this USB host powers it
+        name, = nodes_of_kind(GATEWAY_KIND)
+        self.gateway: UsbGateway = telescope.boards[name]
+        self.bus = self.gateway.can.bus
         self.port = UsbHostPort(self.sched, self.gateway.usb, name="usb-host/uhid")
         self.port.on_in_report = lambda report, now_us: self.uhid.input(report)
         self.uhid = uhid

@@ -85,11 +85,22 @@ def test_shared_constants_are_defined_once():
 
 
 def test_registry_agrees_with_the_protocol():
-    """Every board's node id and device type are the protocol's; the registry names every board
-    node once; telemetry device ids come from the same table."""
-    assert sorted(int(i.node_id) for _, i in R.BOARDS.values()) == sorted(int(n) for n in P.BOARD_NODES)
+    """Every board's node id and device type are the protocol's; the registry names every node
+    once (the CANopen boards and, as the host's node 0x10, the USB gateway); telemetry device ids
+    come from the same table."""
+    assert sorted(int(i.node_id) for _, i in R.BOARDS.values()) == sorted(int(n) for n in P.ALL_NODES)
+    assert sorted(int(i.node_id) for s, i in R.BOARDS.values() if s.canopen) == sorted(int(n) for n in P.BOARD_NODES)
     for name, (spec, inst) in R.BOARDS.items():
         assert P.DEVICE_TYPE_OF_NODE[inst.node_id] == spec.device_type, name
+        if not spec.canopen:      # the gateway: the host's frames out, every board's frame in
+            assert spec.kind == R.GATEWAY_KIND and inst.node_id == P.NodeId.HOST and not spec.ports, name
+            assert int(inst.node_id) not in T.DEVICE_OF_NODE, name         # no RS232 telemetry
+            sends = {cob for cob, _ in spec.sends(inst.node_id)}
+            assert {P.nmt_cob_id(), P.stop_all_cob_id(), P.heartbeat_cob_id(P.NodeId.HOST)} <= sends
+            assert {P.sdo_request_cob_id(n) for n in P.BOARD_NODES} <= sends
+            boards_send = {cob for s, i in R.BOARDS.values() if s.canopen for cob, _ in s.sends(i.node_id)}
+            assert {cob for cob, _ in spec.accepts(inst.node_id)} == boards_send
+            continue
         assert T.DEVICE_OF_NODE[int(inst.node_id)] == int(spec.device_type), name
         assert set(spec.ports) <= set(PORTS), f"{name}: no port factory for {set(spec.ports) - set(PORTS)}"
         assert spec.sends(inst.node_id), name
@@ -153,7 +164,9 @@ def test_a_new_board_kind_is_one_firmware_class_and_one_registry_entry(tmp_path,
     try:
         assert type(tel.boards["focus"]) is Minimal
         assert tel.client.power_on().ok            # it answers the health check's SDO upload
-        tel.scheduler.run_until(tel.scheduler.now_us + 1_000)     # the NMT start is delivered
+        # the NMT start is delivered: through the USB gateway it leaves at the next 1 ms USB
+        # frame, then takes its CAN frame time (docs/usb-gateway.md), so 2 ms, not 1 ms
+        tel.scheduler.run_until(tel.scheduler.now_us + 2_000)
         rows = tel.board_summary()
     finally:
         tel.close()
@@ -167,6 +180,8 @@ def test_default_network_is_the_registry_default_boards(tmp_path):
     tel = build_network(sc)
     try:
         assert tuple(tel.boards) == R.DEFAULT_BOARD_NAMES
-        assert tel.client.expected_nodes == tuple(R.BOARDS[n][1].node_id for n in R.DEFAULT_BOARD_NAMES)
+        assert tel.client.expected_nodes == R.network_nodes("basic")      # the gateway is the host's node
+        assert tel.client.expected_nodes == tuple(R.BOARDS[n][1].node_id for n in R.DEFAULT_BOARD_NAMES
+                                                  if R.BOARDS[n][0].canopen)
     finally:
         tel.close()

@@ -22,7 +22,9 @@ segments:
 def tel():
     t = build_network(parse_scenario(SCENARIO, "kinds.yaml"))
     t.client.send_nmt(p.NmtCommand.START)          # boards boot PRE-OPERATIONAL
-    t.scheduler.run_until(1_000)
+    # delivered: the host's frames leave through the USB gateway at the next 1 ms USB frame
+    # (here t = 1 ms), then take their CAN frame time (docs/usb-gateway.md), so 2 ms, not 1 ms
+    t.scheduler.run_until(2_000)
     yield t
     t.close()
 
@@ -49,14 +51,16 @@ def test_reader_loss_fault_makes_the_axis_report_reader_lost(tel):
 
 
 def test_host_loss_hides_host_frames_from_every_board(tel):
-    """host_loss: a STOP_ALL the host sends reaches no board."""
-    apply_fault(tel, "host_loss", 0)
+    """host_loss: a STOP_ALL the host sends (through the USB gateway, the host's node on the bus)
+    reaches no board."""
+    apply_fault(tel, "host_loss", tel.scheduler.now_us)
     tel.client.bus.send(__import__("can").Message(
         arbitration_id=p.stop_all_cob_id(), is_extended_id=False,
         data=p.encode_stop_all()))
-    tel.scheduler.run_until(10_000)
-    lost = [tel.network.error_state(b.can.bus).frames_lost for b in tel.boards.values()]
-    assert lost == [1] * 5
+    tel.scheduler.run_until(12_000)
+    lost = {name: tel.network.error_state(b.can.bus).frames_lost for name, b in tel.boards.items()}
+    assert lost == {**{name: 1 for name in tel.boards if name != "gateway"}, "gateway": 0}  # not its own
+    assert tel.boards["gateway"].tx_frames == 2           # the fixture's NMT start, then the STOP_ALL
 
 
 def test_unknown_kind_lists_the_valid_ones(tel):

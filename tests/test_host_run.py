@@ -41,6 +41,21 @@ def test_run_writes_logs_reports_and_plots(tracking):
         assert (tracking / name).stat().st_size > 0, name
 
 
+def test_report_has_the_gateway_row_of_what_ran(tracking):
+    """The host talked through the USB gateway: its board row in report.json carries its counters
+    (frames each way, drops, refused reports, queue high water, latency) and report.md shows them."""
+    rep = json.loads((tracking / "report.json").read_text())
+    gw = rep["boards"]["gateway"]
+    assert gw["node"] == 0x10 and gw["state"] == "CONFIGURED"
+    assert gw["rx_frames"] > 0 and gw["tx_frames"] > 0 and gw["rx_dropped"] == 0 and gw["out_malformed"] == 0
+    assert 0 < gw["queue_high_water"] <= gw["queue_depth"]
+    assert 0 < gw["can_to_pc_latency_us"]["mean"] <= gw["can_to_pc_latency_us"]["max"]
+    assert gw["usb_host"]["out_reports"] == gw["out_reports"]
+    md = (tracking / "report.md").read_text()
+    assert "USB-HID gateway `gateway`" in md
+    assert f"| {gw['rx_frames']} | {gw['rx_dropped']} | {gw['queue_high_water']} / {gw['queue_depth']} |" in md
+
+
 def test_report_segments_hold_measured_numbers(tracking):
     """The tracking segment reports the measured error statistics with the documented keys."""
     rep = json.loads((tracking / "report.json").read_text())
@@ -144,7 +159,7 @@ def test_bench_json_keys(capsys):
     assert main(["bench", "--network", "basic", "--seconds", "0.5", "--repeat", "1", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert {"rtf", "rtf_naive", "ratio", "boards", "bus_load_pct", "peak_memory", "network"} <= set(out)
-    assert out["boards"] == 5 and out["rtf"] > 0 and out["rtf_naive"] > 0
+    assert out["boards"] == 6 and out["rtf"] > 0 and out["rtf_naive"] > 0        # five + the USB gateway
     assert out["network"] == "basic" and out["peak_memory"]["max_rss_mib"] > 0
     # the load is the bus model's occupied time: between the shortest (0-byte, 47 bits) and the
     # longest (8-byte, 135 bits) frame per frame counted, at 1 Mbit/s (1 bit = 1 µs)

@@ -32,7 +32,9 @@ def test_named_networks_are_derived_from_the_registry():
     assert R.NETWORKS["lab"] == tuple(n for n in R.BOARD_NAMES if kinds[n] in PAPER_LAB_KINDS)
     assert [kinds[n] for n in R.NETWORKS["lab"]].count("tachometer") == 4
     assert R.NETWORKS["full"] == R.BOARD_NAMES
-    assert R.network_boards(["ra-tach-2", "dec-axis", "ra-axis"]) == ("ra-axis", "dec-axis", "ra-tach-2")
+    # an explicit list: node order, and the host's own node (the USB-HID gateway) is always on the bus
+    assert R.network_boards(["ra-tach-2", "dec-axis", "ra-axis"]) == ("ra-axis", "dec-axis", "ra-tach-2", "gateway")
+    assert len(R.NETWORKS["lab"]) == 10                                        # §3.4: "10 nodes"
 
 
 @pytest.mark.parametrize("body,key,words", [
@@ -70,8 +72,9 @@ def test_explicit_list_builds_checks_and_reports_only_those_boards(tmp_path):
              tmp_path)
     res = run_scenario(sc, tmp_path / "out", plots=False)
     rep = res.report
-    assert rep["network"] == "custom" and list(rep["boards"]) == ["ra-axis", "dec-axis", "dec-tach-2"]
-    assert all(b["state"] == "OPERATIONAL" for b in rep["boards"].values())
+    # (+ the host's own node, the USB-HID gateway, on every network)
+    assert rep["network"] == "custom" and list(rep["boards"]) == ["ra-axis", "dec-axis", "dec-tach-2", "gateway"]
+    assert all(b["state"] == "OPERATIONAL" for n, b in rep["boards"].items() if n != "gateway")
     assert list(rep["maintenance"]["motors"]) == ["dec_b"]
     status = (tmp_path / "out" / "status.log").read_text()
     assert "health-check ok" in status and "ra-reader" not in status
@@ -98,7 +101,7 @@ def test_full_network_report_lists_every_node_and_the_maintenance_quantities(ful
     rep = json.loads((out / "report.json").read_text())
     assert rep["network"] == "full" and rep["nodes"] == {n: int(i.node_id) for n, (_, i) in R.BOARDS.items()}
     assert list(rep["boards"]) == list(R.BOARD_NAMES)
-    assert all(b["state"] == "OPERATIONAL" for b in rep["boards"].values())
+    assert all(b["state"] == "OPERATIONAL" for n, b in rep["boards"].items() if n != "gateway")   # the gateway: no NMT
     m = rep["maintenance"]
     assert list(m["motors"]) == ["ra_a", "ra_b", "dec_a", "dec_b"]
     assert all(v["frames"] > 500 and v["peak_current_a"] > 0 for v in m["motors"].values())
@@ -160,7 +163,7 @@ def test_lab_network_runs_with_the_four_tachometers(tmp_path):
     sc = _sc("network: lab\nsegments:\n  - {name: s, axis: both, mode: slew, duration_s: 1.5, settle_s: 1}\n", tmp_path)
     rep = run_scenario(sc, tmp_path / "out", plots=False).report
     assert list(rep["nodes"]) == list(R.NETWORKS["lab"]) == list(rep["boards"])
-    assert all(b["state"] == "OPERATIONAL" for b in rep["boards"].values())
+    assert all(b["state"] == "OPERATIONAL" for n, b in rep["boards"].items() if n != "gateway")   # the gateway: no NMT
     assert list(rep["maintenance"]["motors"]) == ["ra_a", "ra_b", "dec_a", "dec_b"]
     assert rep["maintenance"]["aux_minus_main_arcsec"] == {}
     header = (tmp_path / "out" / "sensor.log").read_text().splitlines()[1].split()

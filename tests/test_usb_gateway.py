@@ -12,7 +12,7 @@ from boards import FocusController, PositionReader
 from boards.usb_gateway import RX_QUEUE_FRAMES, UsbGateway
 from bus import hid_reports as R
 from bus import protocol as p
-from bus.network import CanNetwork
+from bus.network import CanNetwork, frame_bits
 from bus.scheduler import Scheduler
 from bus.simbus import SimBus
 from bus.usb_link import HIDRAW_BUFFER_REPORTS
@@ -344,3 +344,76 @@ def test_latency_and_throughput_figures(capsys):
                   f"({got / ms:.2f} frames/ms), {r.gw.rx_dropped} dropped and counted")
     finally:
         r.close()
+
+
+def _idle_skip_run(seed: int, idle_skip: bool):
+    """One run of random traffic on a Rig: frames from another node at random instants (bursts
+    past the 4-frame report and the 32-frame queue among them), OUT reports written at random
+    instants from scheduler callbacks and from outside, a refused feature command, reads at
+    random times. Everything the PC and the bus saw, and the counters."""
+    import random
+    rnd = random.Random(seed)
+    r = Rig()
+    try:
+        if not idle_skip:
+            r.port._can_idle = False          # the frame event runs every 1 ms, as it always did
+        h = r.h
+        h.open(VID, PID)
+        src = SimBus(network=r.net)
+        wire = []
+        r.net.add_tap(lambda m: wire.append((r.s.now_us, m.arbitration_id, bytes(m.data))))
+        for _ in range(60):
+            t, n = rnd.randrange(1_000, 300_000), rnd.choice((1, 1, 2, 5, 40))
+            r.s.call_at(t, lambda now, n=n: [src.send(can.Message(arbitration_id=0x300 + i % 8, data=bytes([i]),
+                                                                     is_extended_id=False)) for i in range(n)])
+        for _ in range(40):   # single frames whose end on the wire falls on a USB frame boundary
+            end = rnd.randrange(2, 300) * 1_000
+            r.s.call_at(end - frame_bits(0x3F0, b"\x01"), lambda now: src.send(
+                can.Message(arbitration_id=0x3F0, data=b"\x01", is_extended_id=False)))
+        for k in range(30):   # OUT reports from host-priority callbacks (some at frame boundaries)
+            t = rnd.randrange(1_000, 300_000) // rnd.choice((1, 1000)) * rnd.choice((1, 1000))
+            r.s.call_at(min(t, 299_000), lambda now, k=k: h.write(out_report([(0x0F0, bytes([k]))])), priority=40)
+        got = []
+        while r.s.now_us < 300_000:
+            r.s.run_until(min(300_000, r.s.now_us + rnd.choice((1, 999, 1_000, 2_500, 7_000))))
+            if rnd.random() < 0.2:
+                h.write(out_report([(0x0F1, bytes([rnd.randrange(256)]))]))
+            if rnd.random() < 0.05:
+                assert h.send_feature_report([0, 0x7F] + [0] * 63) == -1      # refused: flag next report
+            if rnd.random() < 0.7:
+                while (tr := h.read_timed(64, 0))[1]:
+                    got.append((tr[0], bytes(tr[1])))
+        port = r.port
+        counters = port.counters()
+        assert (counters.pop("idle_frames") > 10_000 // 1_000) == idle_skip   # the skip did happen
+        return (got, wire, r.gw.status()._asdict() | {"uptime_us": None}, counters,
+                r.gw.usb.in_naks, r.gw.usb.out_naks, port.out_wait_sum_us)
+    finally:
+        r.close()
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_idle_frames_skipped_change_nothing(seed):
+    """The port's idle-frame skip (bus/usb_link.py) gives the same IN reports at the same times,
+    the same frames on the bus and the same counters as a frame event that runs every 1 ms."""
+    fast, always = _idle_skip_run(seed, True), _idle_skip_run(seed, False)
+    assert fast == always
+    assert len(fast[0]) > 50 and fast[2]["rx_dropped"] > 0 and fast[2]["out_malformed"] > 0
+    assert sum(1 for t, i, _ in fast[1] if i == 0x3F0 and t % 1_000 == 0) >= 10    # boundary arrivals
+
+
+def test_frames_the_report_cannot_carry_are_counted_not_forwarded(rig):
+    """A frame of more than 8 data bytes, a remote and an extended frame handed to the gateway's
+    receive path (as host/fuzz.py does) are counted in rx_unsupported; the IN reports stay valid."""
+    rig.h.open(VID, PID)
+    rig.s.run_until(5_000)
+    read_all(rig.h)
+    n = rig.gw.rx_unsupported
+    for msg in (can.Message(arbitration_id=0x123, data=bytes(35), is_extended_id=False),
+                can.Message(arbitration_id=0x123, is_remote_frame=True, is_extended_id=False),
+                can.Message(arbitration_id=0x12345, data=b"\1", is_extended_id=True)):
+        rig.gw.can.on_rx(msg)
+    rig.s.run_until(20_000)
+    reps = read_all(rig.h)
+    assert rig.gw.rx_unsupported == n + 3 and reps
+    assert all(f.arbitration_id != 0x123 and len(f.data) <= 8 for _, rep in reps for f in rep.frames)

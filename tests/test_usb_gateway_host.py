@@ -1,76 +1,150 @@
-"""The project's host client through the USB-HID gateway: HostClient on a python-can bus made of
-HID reports (host/gateway_bus.py) over the in-process hid.device, the gateway on the bus of the
-five boards built by host.network.build_network."""
+"""The project's host client talks through the USB-HID gateway by default: build_network gives
+HostClient a python-can bus made of HID reports (host/gateway_bus.py) over the in-process
+hid.device, on the registry's gateway board (node 0x10); serve's passive monitor stays a direct
+listener on the CAN bus."""
 
 import can
 import pytest
 
 from boards.usb_gateway import UsbGateway
-from bus import hid_reports as R
 from bus import protocol as p
-from bus.simbus import SimBus
-from host import hid_device
-from host.client import HostClient
 from host.gateway_bus import HidGatewayBus
 from host.monitor import BusMonitor
 from host.network import build_network
 from host.scenario import parse_scenario
 from host.serve import DEFAULT_SCENARIO
 
+#: frames of the host's node (node 0x10): NMT, SDO requests, its heartbeat, TRACK to RA, STOP_ALL
+_HOST_IDS = {0x000, 0x190, 0x201, 0x710} | set(range(0x601, 0x680))
+
 
 @pytest.fixture
 def tel():
     sc = parse_scenario(DEFAULT_SCENARIO.read_text(), str(DEFAULT_SCENARIO))
-    t = build_network(sc, host_cls=BusMonitor)      # the network's own host node only listens
-    gw = UsbGateway(t.scheduler, SimBus(network=t.network))
-    usb = hid_device.SimUsb()
-    usb.plug(gw, advance=None)                      # the client reads from scheduler callbacks
-    gw.start()
-    dev = hid_device.device(usb=usb)
-    dev.open(0x04D8, 0x003F)
-    bus = HidGatewayBus(dev)
-    yield t, gw, bus
-    bus.shutdown()
+    t = build_network(sc)
+    yield t
     t.close()
 
 
 def test_health_check_and_tracking_through_the_gateway(tel):
-    """HostClient over HID: the five boards answer the power-on SDO health check; TRACK reaches the RA axis
-    and its status frames come back through IN reports."""
-    t, gw, bus = tel
-    client = HostClient(bus=bus, scheduler=t.scheduler, preset_rates_arcsec_s=t.client.preset_rates_arcsec_s,
-                        arcsec_per_count=t.client.arcsec_per_count)
-    health = client.power_on()
+    """The default client's bus is the gateway's HID bus; the five boards answer the power-on SDO
+    health check; TRACK reaches the RA axis and its status frames come back through IN reports;
+    every frame the host put on the wire went through the gateway."""
+    gw = tel.boards["gateway"]
+    assert isinstance(gw, UsbGateway) and gw.node_id == p.NodeId.HOST
+    assert isinstance(tel.client.bus, HidGatewayBus) and tel.host_can_bus is gw.can.bus
+    on_wire = []
+    tel.network.add_tap(lambda m: on_wire.append(m.arbitration_id) if m.arbitration_id in _HOST_IDS else None)
+    health = tel.client.power_on()
     assert health.ok, health.missing
     assert set(health.answered) == {"ra-axis", "dec-axis", "ra-reader", "dec-reader", "focus"}
-    client.command_axis("ra", "track")
-    t.scheduler.run_until(t.scheduler.now_us + 500_000)
-    assert client.axes["ra"].mode_name == "TRACK"
-    assert client.malformed_frames == 0 and bus.malformed_reports == 0 and bus.lost_reports == 0
-    # every frame the client sent (health check, identity/parameter SDOs, NMT start, its
-    # heartbeat, TRACK) went through the gateway, as the network's monitor saw them on the wire
-    from_host = [c for c in t.client.frames_by_id if c == 0 or 0x600 < c < 0x680 or c == 0x710 or c == 0x201]
-    assert gw.tx_frames == sum(t.client.frames_by_id[c] for c in from_host)
+    tel.client.command_axis("ra", "track")
+    tel.scheduler.run_until(tel.scheduler.now_us + 500_000)
+    assert tel.client.axes["ra"].mode_name == "TRACK"
+    bus = tel.client.bus
+    assert tel.client.malformed_frames == 0 and bus.malformed_reports == 0 and bus.lost_reports == 0
+    assert gw.tx_frames == len(on_wire) and gw.tx_errors == 0
+    assert on_wire.count(0x201) == 1 and on_wire.count(0x000) == 1       # TRACK, NMT start
     assert gw.rx_dropped == 0 and gw.out_malformed == 0
-    assert t.client.commands_seen == {"NMT START": 1, "AXIS_COMMAND TRACK": 1}   # as on the wire
+
+
+def test_frames_reach_the_client_within_one_usb_frame(tel):
+    """CAN → PC: the client decodes each status frame at the next 1 ms USB frame boundary after
+    its end on the wire (the queue stays short on this network), never earlier."""
+    ends = {}
+    tel.network.add_tap(lambda m: ends.setdefault(m.arbitration_id, []).append(tel.scheduler.now_us))
+    tel.client.power_on()
+    tel.scheduler.run_until(tel.scheduler.now_us + 200_000)
+    cob = p.axis_status_cob_id(p.NodeId.RA_AXIS)
+    t_client = tel.client.axes["ra"].t_us
+    t_wire = max(t for t in ends[cob] if t <= t_client)
+    assert t_client % 1_000 == 0 and 0 < t_client - t_wire <= 1_000
+
+
+def test_report_row_carries_the_gateway_counters(tel):
+    """The gateway's board row: its status counters, the CAN → PC latency of what the client took,
+    and the PC side of the USB link; read from what ran and consistent with the client."""
+    tel.client.power_on()
+    tel.client.command_axis("ra", "track")
+    tel.scheduler.run_until(tel.scheduler.now_us + 1_000_000)
+    row = tel.board_summary()["gateway"]
+    gw = tel.boards["gateway"]
+    assert row["node"] == 0x10 and row["state"] == "CONFIGURED" and "emcy_sent" not in row
+    assert row["rx_dropped"] == 0 and row["out_malformed"] == 0 and row["malformed_frames"] == 0
+    assert 1 <= row["queue_high_water"] <= row["queue_depth"] == 32
+    # every frame queued for the PC reached the client, but those still queued or in the armed report
+    assert 0 <= row["rx_frames"] - tel.client.frames_received <= gw.queue_level + 4
+    lat = row["can_to_pc_latency_us"]
+    # a frame waits for the next 1 ms USB frame, plus 1 ms per 4 frames queued ahead of it (the
+    # boards' 5 ms ticks put bursts of more than 4 frames on the wire)
+    bound_us = 1_000 * -(-row["queue_high_water"] // 4)
+    assert lat["frames"] == tel.client.frames_received and 0 < lat["mean"] <= lat["max"] <= bound_us
+    usb = row["usb_host"]
+    assert usb["out_reports"] == row["out_reports"] == row["tx_frames"]   # one frame per OUT report
+    assert usb["in_reports"] == row["in_reports"]
+    # one OUT report leaves per 1 ms frame: the health check writes one SDO request per expected
+    # node at a frame boundary, so the last of them waits one frame per request
+    assert usb["out_wait_us"]["max"] == 1_000 * len(tel.client.expected_nodes)
+    assert 0 < usb["out_wait_us"]["mean"] < usb["out_wait_us"]["max"]
+
+
+def test_a_passive_monitor_stays_on_the_can_bus_and_the_gateway_unpowered(tmp_path):
+    """serve's BusMonitor listens on a CAN handle of its own; the gateway, bus-powered from the
+    PC's USB, is off and takes nothing from the bus."""
+    sc = parse_scenario(DEFAULT_SCENARIO.read_text(), str(DEFAULT_SCENARIO))
+    t = build_network(sc, host_cls=BusMonitor)
+    try:
+        t.scheduler.run_until(200_000)
+        gw = t.boards["gateway"]
+        assert not isinstance(t.client.bus, HidGatewayBus) and t.usb_port is None
+        assert t.host_can_bus is t.client.bus and t.client.frames_received > 0
+        assert gw.rx_frames == 0 and t.board_summary()["gateway"]["state"] == "OFF"
+    finally:
+        t.close()
 
 
 def test_send_refuses_frames_the_gateway_cannot_carry(tel):
     """Extended ids and remote frames raise CanOperationError; nothing reaches the gateway."""
-    t, gw, bus = tel
+    gw, bus = tel.boards["gateway"], tel.client.bus
     with pytest.raises(can.CanOperationError):
         bus.send(can.Message(arbitration_id=0x1234, is_extended_id=True, data=b"\1"))
     with pytest.raises(can.CanOperationError):
         bus.send(can.Message(arbitration_id=0x100, is_extended_id=False, is_remote_frame=True))
-    t.scheduler.run_until(t.scheduler.now_us + 5_000)
+    tel.scheduler.run_until(tel.scheduler.now_us + 5_000)
     assert gw.out_reports == 0
 
 
 def test_send_many_packs_four_frames_per_report(tel):
     """Nine frames go in three OUT reports and reach the bus in order."""
-    t, gw, bus = tel
+    gw, bus = tel.boards["gateway"], tel.client.bus
     seen = []
-    t.network.add_tap(lambda m: seen.append(m.arbitration_id) if 0x640 <= m.arbitration_id < 0x650 else None)
+    tel.network.add_tap(lambda m: seen.append(m.arbitration_id) if 0x640 <= m.arbitration_id < 0x650 else None)
     bus.send_many([can.Message(arbitration_id=0x640 + i, data=bytes([i]), is_extended_id=False) for i in range(9)])
-    t.scheduler.run_until(t.scheduler.now_us + 5_000)
+    tel.scheduler.run_until(tel.scheduler.now_us + 5_000)
     assert seen == [0x640 + i for i in range(9)] and gw.out_reports == 3
+
+
+def test_gateway_reset_and_removal_as_scenario_faults(tel):
+    """board_reset on the gateway: it boots again and the host hears the boards again; then
+    remove_board: the host hears nothing and every board goes LOST in its view. malformed_frame
+    does not apply to the gateway."""
+    from host.faults import check_fault
+    from host.scenario import Fault
+
+    tel.client.power_on()
+    now = tel.scheduler.now_us
+    tel.inject_fault(Fault(at_s=0, kind="board_reset", board="gateway"), now)
+    gw = tel.boards["gateway"]
+    assert gw.reset_count == 1 and gw.reset_cause == "watchdog" and gw.rx_frames == 0
+    n0 = tel.client.frames_received
+    tel.scheduler.run_until(now + 100_000)
+    assert tel.client.frames_received > n0 + 50 and gw.status_name == "CONFIGURED"
+    tel.inject_fault(Fault(at_s=0, kind="remove_board", board="gateway"), tel.scheduler.now_us)
+    n1 = tel.client.frames_received
+    tel.scheduler.run_until(tel.scheduler.now_us + 3_000_000)
+    rows = tel.board_summary()
+    assert tel.client.frames_received == n1 and rows["gateway"]["state"] == "OFF"
+    assert {name: r["state"] for name, r in rows.items() if name != "gateway"} == {
+        name: "LOST" for name in ("ra-axis", "dec-axis", "ra-reader", "dec-reader", "focus")}
+    with pytest.raises(ValueError, match="malformed_frame needs board"):
+        check_fault("malformed_frame", "gateway", {})

@@ -265,7 +265,9 @@ def test_tracking_scenario_runs_on_vcan0(tracking):
     status = (tracking["out"] / "status.log").read_text()
     assert "health-check ok" in status
     assert rep["bus"]["interface"] == "socketcan" and rep["bus"]["channel"] == CHANNEL
-    assert {b["state"] for b in rep["boards"].values()} == {"OPERATIONAL"}
+    assert {n: b["state"] for n, b in rep["boards"].items() if n != "gateway"} == {
+        n: "OPERATIONAL" for n in ("ra-axis", "dec-axis", "ra-reader", "dec-reader", "focus")}
+    assert rep["boards"]["gateway"]["state"] == "CONFIGURED"     # the host's USB gateway, on vcan0 too
     assert all(b["malformed_frames"] == 0 for b in rep["boards"].values())
     (seg,) = rep["segments"]
     assert seg["mode"] == "track" and seg["setpoint_arcsec_s"] == 15.0
