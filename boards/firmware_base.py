@@ -66,6 +66,11 @@ RESET_CAUSES: Dict[str, int] = {"power_on": 0, "watchdog": 1, "software": 2}
 _CAUSE_NAMES = {v: k for k, v in RESET_CAUSES.items()}
 
 STATE_BOOT, STATE_OPERATIONAL, STATE_FAULT, STATE_STOPPED = 0, 1, 2, 3
+#: Longest background-loop period of a board whose CAN controller is polled (no receive
+#: interrupt on the bus), µs: the axis controllers' 5 ms tick (§3.3), short enough for the MCP2515's
+#: two receive buffers at the bus loads of the paper's networks (assumed; see Board.__init__).
+POLL_PERIOD_US = 5_000
+
 FAULT_MALFORMED, FAULT_CRC, FAULT_OVERCURRENT, FAULT_LIMIT_STOP, FAULT_WATCHDOG = 1, 2, 3, 4, 5
 FAULT_STEP_LOSS = int(proto.FaultCode.STEP_LOSS)
 FAULT_REFUSED = int(proto.FaultCode.COMMAND_REFUSED)
@@ -205,6 +210,11 @@ class Board(Firmware, Application):
         self.can.accept = self._accept
         self.can.on_rx = self._on_rx
         self.background_period_us = int(background_period_us)
+        if not self.can.has_rx_interrupt:
+            # a polled CAN controller (python-can ``virtual``, SocketCAN): its two receive
+            # buffers must be emptied at least every POLL_PERIOD_US, or a board with a slow main
+            # loop (display 250 ms, weather 1 s) loses frames, its SDO requests included
+            self.background_period_us = min(self.background_period_us, POLL_PERIOD_US)
         self._background_timer = Timer(scheduler, self.background_period_us, self._background,
                                        priority=PRIO_BACKGROUND, owner=f"{self.name}/background")
         self._timers: List[Timer] = [self._background_timer]

@@ -235,6 +235,10 @@ class HostClient:
     POWER_ON_US = 100_000  #: time the boards have to answer the health check's SDO [µs] (assumed)
     HEARTBEAT_US = 1_000_000   #: the host's CiA heartbeat period [µs] (its EDS 0x1017, 1000 ms)
     POLL_US = 1_000            #: step while waiting for the health check's answers [µs]
+    #: a health-check SDO request not answered within this long is sent again (at most until
+    #: ``POWER_ON_US``) [µs] (assumed: a careful SDO client retries; a USB gateway whose CAN
+    #: receive buffers overflow when many nodes answer at once drops answers, docs/usb-gateway.md)
+    SDO_RETRY_US = 20_000
     #: A board whose heartbeat (1 s period) has not arrived for this long is LOST [µs]: 2.5
     #: periods (assumed; CiA 301 practice is a consumer time of 1.5–3 producer periods).
     HEARTBEAT_TIMEOUT_US = 2_500_000
@@ -649,13 +653,25 @@ class HostClient:
         # the boards boot into PRE-OPERATIONAL (boot-up message); SDO works there
         run_until(self.scheduler.now_us + self.BOOT_US)
         t0 = self.scheduler.now_us
-        for n in self.expected_nodes:
-            self.bus.send(can.Message(arbitration_id=P.sdo_request_cob_id(n), data=SDO_UPLOAD_1000,
-                                      is_extended_id=False))
+
+        def ask(nodes) -> None:
+            for n in nodes:
+                self.bus.send(can.Message(arbitration_id=P.sdo_request_cob_id(n), data=SDO_UPLOAD_1000,
+                                          is_extended_id=False))
+
+        ask(self.expected_nodes)
         if self.logs:
             self.logs.command(t0, "all", "SDO upload 0x1000", "power-on health check")
+        asked = t0
         while (self.scheduler.now_us < t0 + self.POWER_ON_US
                and any(self.sdo_answers.get(n, -1) < t0 for n in self.expected_nodes)):
+            if self.scheduler.now_us - asked >= self.SDO_RETRY_US:
+                again = [n for n in self.expected_nodes if self.sdo_answers.get(n, -1) < t0]
+                ask(again)
+                asked = self.scheduler.now_us
+                if self.logs:
+                    self.logs.command(asked, "host", "SDO upload 0x1000",
+                                      "health check retry: " + ",".join(_node_name(n) for n in again))
             run_until(min(self.scheduler.now_us + self.POLL_US, t0 + self.POWER_ON_US))
         # the health check's answers (before the identity reads add answers of their own)
         answered = {NODE_NAMES[n]: self.sdo_answers[n] for n in self.expected_nodes
