@@ -40,6 +40,7 @@ from boards.safety import (DEFAULT_SAFETY, REFUSE_DUTY, REFUSE_GAIN, REFUSE_LIMI
                            SafetyLimits)
 from boards.peripherals import Adc, Pwm, Qei, Timer
 from boards.services import ObjectRefused
+from boards.services.application import ABORT_VALUE_TOO_HIGH, ABORT_VALUE_TOO_LOW
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_ISR, Scheduler
 from bus.units import ARCSEC_PER_RAD, ARCSEC_PER_REV, Q15_FULL_SCALE, check_counter_fraction, duty_to_q15, q15_to_duty
@@ -581,11 +582,19 @@ class AxisController(Board):
         return super().od_read(index, subindex)
 
     def od_write(self, index: int, subindex: int, value) -> None:
-        """Kp, Ki (as SET_KP/SET_KI: bumpless, volatile), effort limit, counter fraction."""
-        if index == 0x2000 and subindex == 1:
-            self.pi.kp = value * 1e-6
-        elif index == 0x2000 and subindex == 2:
-            self.pi.ki = value * 1e-6
+        """Kp, Ki (as SET_KP/SET_KI: bumpless, volatile, refused outside the same gain band,
+        abort 0x06090031/0x06090032), effort limit, counter fraction."""
+        if index == 0x2000 and subindex in (1, 2):
+            gain = value * 1e-6
+            tuned = self.kp0 if subindex == 1 else self.ki0
+            band = self.safety.gain_band
+            if gain > tuned * band or gain < tuned / band:
+                raise ObjectRefused(ABORT_VALUE_TOO_HIGH if gain > tuned * band else ABORT_VALUE_TOO_LOW,
+                                    f"gain outside [tuned/{band:g}, tuned*{band:g}] (boards/safety.py gain_band)")
+            if subindex == 1:
+                self.pi.kp = gain
+            else:
+                self.pi.ki = gain
         elif index == 0x2000 and subindex == 3:
             self.pi.u_max = self.u_max = q15_to_duty(value)
         elif index == 0x2000 and subindex == 4:

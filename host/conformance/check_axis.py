@@ -16,7 +16,8 @@ from host.conformance.check_malformed import emcy_frames
 
 pytestmark = pytest.mark.motion
 
-ARCSEC_PER_REV = 1_296_000.0
+#: 360 × 3600″ — written here, not imported from bus.units: the suite uses none of the project's code.
+_ARCSEC_PER_TURN = 360 * 3600.0
 
 
 class Axis:
@@ -80,7 +81,7 @@ class Axis:
     def angle_arcsec(self, counts: int) -> float:
         half = self.counts_per_rev // 2
         c = counts - self.counts_per_rev if counts >= half else counts
-        return c * ARCSEC_PER_REV / self.counts_per_rev
+        return c * _ARCSEC_PER_TURN / self.counts_per_rev
 
     def rate(self, window_s: float) -> float:
         """Mean axis rate over the next ``window_s``, ″/s (unwrapped reader positions)."""
@@ -94,7 +95,7 @@ class Axis:
             d = (c - prev) % self.counts_per_rev
             total += d - self.counts_per_rev if d >= self.counts_per_rev // 2 else d
             prev = c
-        return total * ARCSEC_PER_REV / self.counts_per_rev / (p[-1][0] - p[0][0])
+        return total * _ARCSEC_PER_TURN / self.counts_per_rev / (p[-1][0] - p[0][0])
 
     def refusals(self, t0: float):
         code = self.conf.docs.emcy("COMMAND_REFUSED")
@@ -284,7 +285,7 @@ def test_axis_soft_limit(axis_node, conf, check):
     lo0, hi0 = lo_sdo.raw, hi_sdo.raw
     code = conf.docs.emcy("LIMIT_STOP")
     fault = conf.docs.fault_code("LIMIT_STOP")
-    half_deg = int(1800.0 / ARCSEC_PER_REV * ax.counts_per_rev)
+    half_deg = int(1800.0 / _ARCSEC_PER_TURN * ax.counts_per_rev)
     try:
         limit = _here_signed(ax) + half_deg
         hi_sdo.raw = limit
