@@ -224,6 +224,8 @@ class AxisController(Board):
             self._init_axis_state()
 
     def _init_axis_state(self) -> None:
+        #: this axis's preset magnitudes, ″/s by command (0x2001, rw; power-on values restored on reset)
+        self.preset_rates_arcsec_s = {int(m): abs(r[min(self.axis, 1)]) for m, r in PRESET_RATES_ARCSEC_S.items()}
         self.pi = IncrementalPI(self.kp0, self.ki0, self.u_max)
         self.mode = AxisMode.STOP
         self.setpoint_arcsec_s = 0.0
@@ -443,6 +445,7 @@ class AxisController(Board):
         elif arbitration_id == proto.axis_command_cob_id(self.node_id):
             c = proto.decode_axis_command(data)
             self._host_alive()
+            self.note_command(c.cmd)
             self._command(c)
         elif arbitration_id == proto.limit_cob_id(self.limit_reader_node):
             lim = proto.decode_limit(data)
@@ -507,7 +510,7 @@ class AxisController(Board):
                 self.refuse(REFUSE_RATE, cmd)
                 return
         else:
-            rate = sign * PRESET_RATES_ARCSEC_S[cmd][min(self.axis, 1)]
+            rate = sign * self.preset_rates_arcsec_s[int(cmd)]
         if self._refuse(rate, cmd):
             return
         self._start_motion()
@@ -577,8 +580,7 @@ class AxisController(Board):
                     3: duty_to_q15(self.pi.u_max),
                     4: duty_to_q15(self.counter_fraction)}.get(subindex)
         if index == 0x2001 and 1 <= subindex <= 5:
-            rate = PRESET_RATES_ARCSEC_S[subindex][min(self.axis, 1)]   # sub n = command n
-            return int(round(abs(rate) * 1000.0))
+            return int(round(self.preset_rates_arcsec_s[subindex] * 1000.0))   # sub n = command n
         return super().od_read(index, subindex)
 
     def od_write(self, index: int, subindex: int, value) -> None:
@@ -595,6 +597,9 @@ class AxisController(Board):
                 self.pi.kp = gain
             else:
                 self.pi.ki = gain
+        elif index == 0x2001 and 1 <= subindex <= 5:
+            # takes effect at the next preset command (a running preset keeps its setpoint)
+            self.preset_rates_arcsec_s[subindex] = value / 1000.0
         elif index == 0x2000 and subindex == 3:
             self.pi.u_max = self.u_max = q15_to_duty(value)
         elif index == 0x2000 and subindex == 4:

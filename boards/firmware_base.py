@@ -162,6 +162,10 @@ class Board(Application):
         self._tx_queue: List[tuple] = []
         self.faults_sent = 0
         self.refused_commands = 0
+        # command log, object 0x2F01 (issue 10: the acknowledgement a host reads back by SDO)
+        self.commands_received = 0
+        self.last_command = 0
+        self.last_refusal = 0
         #: active fault conditions {code: last time the condition was present, µs}
         self.active_faults: Dict[int, int] = {}
         self.faults_suppressed = 0           # occurrences folded into an active condition
@@ -405,6 +409,7 @@ class Board(Application):
         """Report a refused command: FAULT ``COMMAND_REFUSED``, detail = reason << 8 | cmd.
         The caller leaves its state unchanged."""
         self.refused_commands += 1
+        self.last_refusal = ((reason & 0xFF) << 8) | (cmd & 0xFF)
         self.send_fault(FAULT_REFUSED, detail=((reason & 0xFF) << 8) | (cmd & 0xFF))
 
     def send_fault(self, code: int, detail: int = 0) -> None:
@@ -423,11 +428,20 @@ class Board(Application):
         self.device.emcy.report(EMCY_OF_FAULT[code], detail & 0xFFFF)
 
     # ------------------------------------------------------------------ CANopen application
+    def note_command(self, cmd: int) -> None:
+        """A command frame decoded (accepted or refused after): object 0x2F01 sub 1 and 2."""
+        self.commands_received += 1
+        self.last_command = int(cmd) & 0xFF
+
     def od_read(self, index: int, subindex: int):
-        """SDO read of a manufacturer object (0x2F00 diagnostics here; subclasses add theirs)."""
+        """SDO read of a manufacturer object (0x2F00 diagnostics, 0x2F01 command log here;
+        subclasses add theirs)."""
         if index == 0x2F00:
             return {1: min(self.malformed_frames, 0xFFFF), 2: min(self.reset_count, 0xFFFF),
                     3: RESET_CAUSES[self.reset_cause], 4: self.uptime_s}.get(subindex)
+        if index == 0x2F01:
+            return {1: self.commands_received & 0xFFFF, 2: self.last_command,
+                    3: min(self.refused_commands, 0xFFFF), 4: self.last_refusal}.get(subindex)
         return None
 
     def od_write(self, index: int, subindex: int, value) -> None:

@@ -23,7 +23,7 @@ FAMILIES = ("presence.", "identity.", "frames.dlc", "frames.device_type", "timin
             "malformed.keeps_running", "emcy.heartbeat_lost", "emcy.error_reset", "axis.SLEW+1.rate",
             "axis.VELOCITY.rate", "axis.OPEN_LOOP.effort", "axis.SET_KP.refused", "axis.VELOCITY.outside_range",
             "axis.direction0_preset", "limit.stop_mode", "limit.toward_refused", "limit.error_reset",
-            "focus.refused")
+            "focus.refused", "command_log.received", "command_log.refused", "preset_write.effect")
 
 
 def test_conform_in_process_passes_every_check(tmp_path, capsys):
@@ -121,3 +121,20 @@ def test_documents_agree_with_the_firmware_tables():
 def test_fault_table_parse_error_names_the_file():
     with pytest.raises(ValueError, match="x.md: no fault-code table"):
         parse_fault_table("no table here", "x.md")
+
+
+def test_host_setpoints_follow_a_preset_written_to_the_firmware():
+    """0x2001 is writable: the host's reported setpoint of a preset is the firmware's current
+    preset (one source), not the build's table."""
+    from host.network import build_network
+    from host.scenario import load_scenario
+
+    tel = build_network(load_scenario(ROOT / "scenarios" / "tracking-low-preload.yaml"))
+    try:
+        assert tel.client.preset_rates_arcsec_s[("set", "ra")] == 600.0
+        tel.boards["ra-axis"].od_write(0x2001, 2, 900_000)
+        assert tel.client.preset_rates_arcsec_s[("set", "ra")] == 900.0
+        assert tel.client.preset_rates_arcsec_s[("set", "dec")] == 600.0
+        assert tel.boards["ra-axis"].od_read(0x2001, 2) == 900_000
+    finally:
+        tel.close()

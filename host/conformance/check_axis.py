@@ -331,3 +331,77 @@ def test_axis_soft_limit(axis_node, conf, check):
         ax.stop()
         hi_sdo.raw = hi0
         lo_sdo.raw = lo0
+
+
+def _entry(node, obj_name, entry_name):
+    """(index, sub) of the EDS entry ``entry_name`` of object ``obj_name``."""
+    for idx in range(0x2000, 0x3000):
+        if idx in node.od and node.od[idx].name == obj_name and hasattr(node.od[idx], "subindices"):
+            for sub, var in node.od[idx].subindices.items():
+                if var.name == entry_name:
+                    return idx, sub
+    raise KeyError(f"{node}: the EDS has no '{obj_name}: {entry_name}'")
+
+
+def test_axis_command_log(axis_node, conf, check):
+    """EDS 'Command log' (SDO): a TRACK adds one to 'Commands received' and sets 'Last command'
+    to its cmd byte; a refused VELOCITY adds one to 'Commands refused' and 'Last refusal' equals
+    the detail of its EMCY COMMAND_REFUSED."""
+    conf.ensure_operational(axis_node)
+    ax = Axis(conf, axis_node)
+    sdo = axis_node.remote.sdo
+    (i, s_rx), (_, s_last), (_, s_ref), (_, s_lref) = (
+        _entry(axis_node, "Command log", n) for n in ("Commands received", "Last command",
+                                                      "Commands refused", "Last refusal"))
+    try:
+        n0, r0 = sdo[i][s_rx].raw, sdo[i][s_ref].raw
+        ax.send("TRACK", 1)
+        ax.link.wait(conf.docs.tolerances.command_reaction_s)
+        n1, last = sdo[i][s_rx].raw, sdo[i][s_last].raw
+        check("command_log.received", axis_node, f"'Commands received' +1, 'Last command' = {ax.cmds['TRACK']}",
+              f"{n0} -> {n1}, last {last}", n1 == (n0 + 1) % 0x10000 and last == ax.cmds["TRACK"])
+        sig = ax.value_signal("VELOCITY")
+        t = ax.send("VELOCITY", 1, int(round(sig.maximum / sig.scale)) + 1)
+        ax.link.wait(conf.docs.tolerances.command_reaction_s)
+        r1, lref = sdo[i][s_ref].raw, sdo[i][s_lref].raw
+        ref = ax.refusals(t)
+        check("command_log.refused", axis_node, "'Commands refused' +1, 'Last refusal' = the EMCY detail",
+              f"{r0} -> {r1}, last 0x{lref:04X}, EMCY {[hex(e[4]) for e in ref]}",
+              r1 == r0 + 1 and any(e[4] == lref for e in ref))
+    finally:
+        ax.stop()
+
+
+def test_axis_preset_write(axis_node, conf, check):
+    """The SET preset is writable by SDO (EDS 'Preset rates: SET rate', rw): 900″/s written, a
+    SET command runs at 900″/s (then SET −1 back); a value above the EDS HighLimit is aborted (0x06090031) and
+    the preset is unchanged. The preset is restored."""
+    import canopen
+
+    conf.ensure_operational(axis_node)
+    ax = Axis(conf, axis_node)
+    conf.ensure_operational(ax.reader)
+    idx, sub = _entry(axis_node, "Preset rates", "SET rate")
+    var = axis_node.remote.sdo[idx][sub]
+    old = var.raw
+    high = axis_node.od[idx][sub].max
+    tol = conf.docs.tolerances
+    try:
+        var.raw = 900_000
+        ax.send("SET", 1)
+        ax.link.wait(tol.settle_s)
+        r = ax.rate(tol.rate_window_s)
+        check("preset_write.effect", axis_node, "SET at the written 900″/s", f"{r:.3f}″/s", _rate_ok(tol, r, 900.0))
+        ax.send("SET", -1)
+        ax.link.wait(tol.settle_s + tol.rate_window_s)
+        code = None
+        try:
+            var.raw = high + 1
+        except canopen.SdoAbortedError as exc:
+            code = exc.code
+        now = var.raw
+        check("preset_write.above_high_limit", axis_node, f"write {high + 1} > HighLimit {high}: abort 0x06090031, unchanged",
+              f"abort {code and hex(code)}, value {now}", code == 0x06090031 and now == 900_000)
+    finally:
+        ax.stop()
+        var.raw = old
