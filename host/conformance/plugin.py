@@ -48,6 +48,8 @@ def pytest_addoption(parser):
                 help="assert timing checks, or only report them")
     g.addoption("--cf-capture", type=float, default=5.5,
                 help="seconds of periodic traffic captured for the period and jitter checks")
+    g.addoption("--cf-reaction-slack", type=float, default=0.0,
+                help="seconds added to every reaction timeout on a real bus (a slow emulator behind serve)")
     g.addoption("--cf-out", default=None, help="write conformance.json and conformance.md here")
 
 
@@ -94,6 +96,13 @@ class Conformance:
         self.config = config
         self.opt = lambda name: config.getoption(name)
         self.docs = load_documents()
+        slack = float(config.getoption("--cf-reaction-slack") or 0.0)
+        if slack:
+            from dataclasses import replace
+            t = self.docs.tolerances
+            self.docs.tolerances = replace(t, nmt_reaction_s=t.nmt_reaction_s + slack,
+                                           command_reaction_s=t.command_reaction_s + slack)
+        self.slack = slack
         self.records: List[CheckRecord] = []
         self.link: Optional[Link] = None
         self._nodes: Optional[List[NodeInfo]] = None
@@ -127,7 +136,7 @@ class Conformance:
                 if not channel:
                     raise pytest.UsageError("--cf-channel is required with --cf-interface")
                 self.link = open_real_link(self.opt("--cf-interface"), channel,
-                                           self.opt("--cf-bitrate"))
+                                           self.opt("--cf-bitrate"), sdo_timeout_s=0.1 + self.slack)
         return self.link
 
     # ------------------------------------------------------------------ the nodes
