@@ -303,7 +303,7 @@ def test_axis_soft_limit(axis_node, conf, check):
         pos = _here_signed(ax)
         check("limit.before_limit", axis_node, f"stopped before the high limit ({limit} counts)",
               f"{pos} counts", pos < limit)
-        st = ax.status(ax.link.now() - 0.02)
+        st = ax.status(ax.link.now() - 0.2 - conf.slack)       # the last status frame
         mode = None if st is None else int(st["mode"])
         check("limit.cleared_to_stop", axis_node, "at rest inside the limit: the flag clears, mode STOP",
               mode, mode == ax.modes["STOP"])
