@@ -1,5 +1,5 @@
-"""The socketcan path on a real Linux kernel: tests/test_vcan.py, tests/test_vcan_serve.py and
-tests/test_vcan_conform.py (marked ``vcan``) run inside a QEMU guest that has ``vcan0`` (``.ci/vcan-guest/run``; this
+"""The socketcan path on a real Linux kernel: tests/test_vcan.py and tests/test_vcan_serve.py
+(marked ``vcan``) run inside a QEMU guest that has ``vcan0`` (``.ci/vcan-guest/run``; this
 machine's kernel has no AF_CAN), and every one of their tests must pass there.
 
 Skipped, with the reason, where the guest cannot boot (no QEMU or no cached guest kernel: run
@@ -21,11 +21,10 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 GUEST = ROOT / ".ci" / "vcan-guest" / "run"
-#: The vcan-marked test files the guest runs, in this order (serve last: it reuses the warm-up;
-#: then ``schmidt-fil conform`` against serve, functional checks asserted).
-VCAN_TEST_FILES = ("tests/test_vcan.py", "tests/test_vcan_serve.py", "tests/test_vcan_conform.py")
-#: Wall-clock limit of the guest run [s]; it normally takes a few minutes (docs/socketcan.md).
-GUEST_TIMEOUT_S = 900
+#: The vcan-marked test files the guest runs, in this order (serve last: it reuses the warm-up).
+VCAN_TEST_FILES = ("tests/test_vcan.py", "tests/test_vcan_serve.py")
+#: Wall-clock limit of the guest run [s]; it normally takes about a minute (docs/socketcan.md).
+GUEST_TIMEOUT_S = 600
 
 
 def _guest_not_ready() -> str | None:
@@ -69,7 +68,6 @@ def test_vcan_suite_passes_inside_a_linux_guest(tmp_path):
     figures = json.loads((out / "vcan-figures.json").read_text())
     assert figures["tracking_vcan0"]["realtime"]["steps"] > 0 and figures["candump_frames"] > 0
     assert figures["serve_vcan0"]["status_frames_per_wall_s"] > 0
-    assert figures["conform_vcan0"]["functional_checks"] > 250
     ctl = out / ".vcan-guest"
     print(f"vcan guest: {counts['tests']} tests passed; boot to command {(ctl / 'boot_s').read_text().strip()} s, "
           f"guest uptime at end {(ctl / 'end_s').read_text().strip()} s, wall {wall_s:.1f} s; figures {figures}")
