@@ -40,6 +40,7 @@ from boards.safety import (DEFAULT_SAFETY, REFUSE_DUTY, REFUSE_GAIN, REFUSE_LIMI
                            SafetyLimits)
 from boards.peripherals import Adc, Pwm, Qei, Timer
 from boards.services import ObjectRefused
+from boards.services.application import ABORT_VALUE_TOO_HIGH, ABORT_VALUE_TOO_LOW
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_ISR, Scheduler
 from bus.units import ARCSEC_PER_RAD, ARCSEC_PER_REV, Q15_FULL_SCALE, check_counter_fraction, duty_to_q15, q15_to_duty
@@ -229,6 +230,8 @@ class AxisController(Board):
             self._init_axis_state()
 
     def _init_axis_state(self) -> None:
+        #: this axis's preset magnitudes, ″/s by command (0x2001, rw; power-on values restored on reset)
+        self.preset_rates_arcsec_s = {int(m): abs(r[min(self.axis, 1)]) for m, r in PRESET_RATES_ARCSEC_S.items()}
         self.pi = IncrementalPI(self.kp0, self.ki0, self.u_max)
         self.mode = AxisMode.STOP
         self.setpoint_arcsec_s = 0.0
@@ -491,6 +494,7 @@ class AxisController(Board):
         elif arbitration_id == proto.axis_command_cob_id(self.node_id):
             c = proto.decode_axis_command(data)
             self._host_alive()
+            self.note_command(c.cmd)
             self._command(c)
         elif arbitration_id == proto.limit_cob_id(self.limit_reader_node):
             lim = proto.decode_limit(data)
@@ -556,7 +560,7 @@ class AxisController(Board):
                 self.refuse(REFUSE_RATE, cmd)
                 return
         else:
-            rate = sign * PRESET_RATES_ARCSEC_S[cmd][min(self.axis, 1)]
+            rate = sign * self.preset_rates_arcsec_s[int(cmd)]
         if self._refuse(rate, cmd):
             return
         self._start_motion()
@@ -619,8 +623,9 @@ class AxisController(Board):
             self._brake(AxisMode.LIMIT_STOP)
             if self.limit_stop_mode == "coast":
                 self.pi.force(0.0)
-            if detail is not None:
-                self.send_fault(FAULT_LIMIT_STOP, detail=detail)
+            if detail is None:                 # raised by a POSITION frame's limit bits
+                detail = self.limit_flags | (LIMIT_INVALID if self.position_invalid else 0)
+            self.send_fault(FAULT_LIMIT_STOP, detail=detail)
         elif self.mode == AxisMode.LIMIT_STOP and not self.limit_flags:
             self.mode = AxisMode.STOP
 
@@ -642,16 +647,26 @@ class AxisController(Board):
                     3: duty_to_q15(self.pi.u_max),
                     4: duty_to_q15(self.counter_fraction)}.get(subindex)
         if index == 0x2001 and 1 <= subindex <= 5:
-            rate = PRESET_RATES_ARCSEC_S[subindex][min(self.axis, 1)]   # sub n = command n
-            return int(round(abs(rate) * 1000.0))
+            return int(round(self.preset_rates_arcsec_s[subindex] * 1000.0))   # sub n = command n
         return super().od_read(index, subindex)
 
     def od_write(self, index: int, subindex: int, value) -> None:
-        """Kp, Ki (as SET_KP/SET_KI: bumpless, volatile), effort limit, counter fraction."""
-        if index == 0x2000 and subindex == 1:
-            self.pi.kp = value * 1e-6
-        elif index == 0x2000 and subindex == 2:
-            self.pi.ki = value * 1e-6
+        """Kp, Ki (as SET_KP/SET_KI: bumpless, volatile, refused outside the same gain band,
+        abort 0x06090031/0x06090032), effort limit, counter fraction."""
+        if index == 0x2000 and subindex in (1, 2):
+            gain = value * 1e-6
+            tuned = self.kp0 if subindex == 1 else self.ki0
+            band = self.safety.gain_band
+            if gain > tuned * band or gain < tuned / band:
+                raise ObjectRefused(ABORT_VALUE_TOO_HIGH if gain > tuned * band else ABORT_VALUE_TOO_LOW,
+                                    f"gain outside [tuned/{band:g}, tuned*{band:g}] (boards/safety.py gain_band)")
+            if subindex == 1:
+                self.pi.kp = gain
+            else:
+                self.pi.ki = gain
+        elif index == 0x2001 and 1 <= subindex <= 5:
+            # takes effect at the next preset command (a running preset keeps its setpoint)
+            self.preset_rates_arcsec_s[subindex] = value / 1000.0
         elif index == 0x2000 and subindex == 3:
             self.pi.u_max = self.u_max = q15_to_duty(value)
         elif index == 0x2000 and subindex == 4:

@@ -246,6 +246,10 @@ class Board(Firmware, Application):
         self._tx_queue: List[tuple] = []
         self.faults_sent = 0
         self.refused_commands = 0
+        # command log, object 0x2F01 (issue 10: the acknowledgement a host reads back by SDO)
+        self.commands_received = 0
+        self.last_command = 0
+        self.last_refusal = 0
         #: active fault conditions {code: last time the condition was present, µs}
         self.active_faults: Dict[int, int] = {}
         self.faults_suppressed = 0           # occurrences folded into an active condition
@@ -324,12 +328,15 @@ class Board(Firmware, Application):
                                      "standard data frame")
             cob = msg.arbitration_id
             data = bytes(msg.data)
-            if self.device.receive(cob, data):
-                return                                  # NMT, SDO, a consumed heartbeat
+            consumed = self.device.receive(cob, data)   # NMT, SDO, a heartbeat in 0x1016
             if proto.FC_HEARTBEAT < cob <= proto.FC_HEARTBEAT + 0x7F:
-                if cob in self._firmware_ids:           # e.g. the axis's host watchdog (0x710)
+                # a heartbeat the firmware watches too (the axis's host watchdog, 0x710) reaches
+                # it even when 0x1016 consumes the same heartbeat; in every NMT state
+                if cob in self._firmware_ids:
                     self.handle_frame(cob, data)
-                return                                  # heartbeats count in every NMT state
+                return
+            if consumed:
+                return
             if not self.device.accept_rpdo(cob):
                 return                                  # process data outside OPERATIONAL
             if cob == self._stop_all_id:
@@ -466,6 +473,7 @@ class Board(Firmware, Application):
         """Report a refused command: FAULT ``COMMAND_REFUSED``, detail = reason << 8 | cmd.
         The caller leaves its state unchanged."""
         self.refused_commands += 1
+        self.last_refusal = ((reason & 0xFF) << 8) | (cmd & 0xFF)
         self.send_fault(FAULT_REFUSED, detail=((reason & 0xFF) << 8) | (cmd & 0xFF))
 
     def send_fault(self, code: int, detail: int = 0) -> None:
@@ -484,11 +492,20 @@ class Board(Firmware, Application):
         self.device.emcy.report(EMCY_OF_FAULT[code], detail & 0xFFFF)
 
     # ------------------------------------------------------------------ CANopen application
+    def note_command(self, cmd: int) -> None:
+        """A command frame decoded (accepted or refused after): object 0x2F01 sub 1 and 2."""
+        self.commands_received += 1
+        self.last_command = int(cmd) & 0xFF
+
     def od_read(self, index: int, subindex: int):
-        """SDO read of a manufacturer object (0x2F00 diagnostics here; subclasses add theirs)."""
+        """SDO read of a manufacturer object (0x2F00 diagnostics, 0x2F01 command log here;
+        subclasses add theirs)."""
         if index == 0x2F00:
             return {1: min(self.malformed_frames, 0xFFFF), 2: min(self.reset_count, 0xFFFF),
                     3: RESET_CAUSES[self.reset_cause], 4: self.uptime_s}.get(subindex)
+        if index == 0x2F01:
+            return {1: self.commands_received & 0xFFFF, 2: self.last_command,
+                    3: min(self.refused_commands, 0xFFFF), 4: self.last_refusal}.get(subindex)
         return None
 
     def od_write(self, index: int, subindex: int, value) -> None:

@@ -275,6 +275,7 @@ class FocusController(Board):
             super().handle_frame(arbitration_id, data)
             return
         c = proto.decode_focus_command(data)
+        self.note_command(c.cmd)
         if c.cmd == CMD_STOP:
             self.target_halfsteps = self.pos_halfsteps
         elif c.cmd in (CMD_STEP, CMD_MOVE_TO):

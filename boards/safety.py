@@ -31,6 +31,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional
 
+from bus.protocol import VELOCITY_MAX_MARCSEC_S
+
 __all__ = ["SafetyLimits", "DEFAULT_SAFETY", "RECOMMENDED_HOST_WATCHDOG_US",
            "REFUSE_GAIN", "REFUSE_RATE", "REFUSE_DUTY", "REFUSE_LIMIT", "REFUSE_READER",
            "REFUSE_TRAVEL", "REFUSE_AZIMUTH"]
@@ -117,7 +119,7 @@ class SafetyLimits:
         FAULT_CLEARED sent and a new occurrence reported (rate limit), µs (default 1 s).
     """
 
-    max_rate_arcsec_s: float = 10_800.0
+    max_rate_arcsec_s: float = VELOCITY_MAX_MARCSEC_S / 1000.0     # 10 800 ″/s, the DBC's range
     gain_band: float = 4.0
     brake_decel_arcsec_s2: float = 14_400.0
     brake_margin_arcsec_s: float = 1_500.0

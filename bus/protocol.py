@@ -1360,9 +1360,15 @@ AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.VELOCITY] = ("velocity", 0.001, "arcsec/s
 AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.OPEN_LOOP] = ("open_loop_duty", 1 / Q15_FULL_SCALE, "duty")
 AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.SET_KP] = ("kp", 1e-6, "duty/(arcsec/s)")
 AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.SET_KI] = ("ki", 1e-6, "duty/(arcsec/s)")
+#: Highest |VELOCITY| the axis firmware accepts, milli-arcsec/s: 3°/s, the paper's highest operated
+#: rate (§4); the one source of ``boards.safety.SafetyLimits.max_rate_arcsec_s``'s default.
+VELOCITY_MAX_MARCSEC_S = 10_800_000
 #: Raw range of ``AXIS_COMMAND.value`` the axis firmware accepts, per command (the DBC's ranges;
-#: other commands: the whole i32). Out of range: the firmware counts the frame malformed.
+#: other commands: the whole i32). Out of range: the firmware refuses the command (EMCY
+#: COMMAND_REFUSED, state unchanged). SET_KP/SET_KI are also refused outside the gain band
+#: around the tuned gain (boards/safety.py), which no static range can express.
 AXIS_COMMAND_VALUE_RANGES: dict[AxisCommand, tuple[int, int]] = {
+    AxisCommand.VELOCITY: (-VELOCITY_MAX_MARCSEC_S, VELOCITY_MAX_MARCSEC_S),
     AxisCommand.OPEN_LOOP: (-Q15_FULL_SCALE, Q15_FULL_SCALE),
     AxisCommand.SET_KP: (0, I32_MAX),
     AxisCommand.SET_KI: (0, I32_MAX),

@@ -15,7 +15,7 @@ import sys
 
 #: Subcommand modules, in help order.
 SUBCOMMANDS = ("host.cli_run", "host.cli_serve", "host.cli_bench", "host.cli_calibrate", "host.cli_benchmark",
-               "host.cli_validate", "host.cli_identify_mesh", "host.cli_validate_paper", "host.cli_fuzz")
+               "host.cli_validate", "host.cli_identify_mesh", "host.cli_validate_paper", "host.cli_fuzz", "host.cli_conform")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -46,6 +46,7 @@ Decisions written down here:
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 
 import itertools
 from dataclasses import dataclass, field
@@ -349,6 +350,31 @@ PORTS: dict[str, Callable[[_Build, BoardInstance], Callable]] = {
 }
 
 
+class _LivePresets(Mapping):
+    """``{(mode name, axis): ″/s}`` read from the axis boards' current presets (object 0x2001,
+    writable by SDO), so the host's setpoints follow a write: one source, the firmware."""
+
+    _MODES = {AxisMode.NAMES[m].lower(): int(m) for m in PRESET_RATES_ARCSEC_S}
+
+    def __init__(self, boards: dict) -> None:
+        self._boards = boards
+
+    def _key_ok(self, key) -> bool:
+        return isinstance(key, tuple) and len(key) == 2 and key[0] in self._MODES and key[1] in AXES
+
+    def __getitem__(self, key):
+        if not self._key_ok(key):
+            raise KeyError(key)
+        mode, axis = key
+        return self._boards[_AXIS_BOARD[axis]].preset_rates_arcsec_s[self._MODES[mode]]
+
+    def __iter__(self):
+        return iter([(m, a) for m in self._MODES for a in AXES])
+
+    def __len__(self) -> int:
+        return len(self._MODES) * len(AXES)
+
+
 def _axis_settings(b: _Build, i: BoardInstance) -> dict:
     ap = b.params.axes[i.axis]
     cc = getattr(b.scenario.controller, i.axis)
@@ -508,8 +534,8 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient,
 
     adc = Adc({})
     shunt = params.axes["ra"].motor.shunt_ohm
-    preset = {(AxisMode.NAMES[m].lower(), axis): rates[i] for m, rates in PRESET_RATES_ARCSEC_S.items()
-              for i, axis in enumerate(AXES)}
+    # the setpoints the host reports are the presets the axis firmware holds now (0x2001 is rw)
+    preset = _LivePresets(boards)
     client = host_cls(
         bus=host_bus, scheduler=sched, preset_rates_arcsec_s=preset, expected_nodes=expected,
         # the duty-speed map with the counter fraction the axis firmware runs

@@ -122,8 +122,9 @@ def test_ranges_equal_what_todays_firmware_accepts():
         IncrementalPI(1e-4, 1e-5, (hi + 1) / 32767)
     lo, hi = _acc("axis_controller", 0x2000, 4)                      # p in [0, 1)
     assert lo == 0 and hi / 32767 < 1.0 <= (hi + 1) / 32767
-    for sub in range(1, 6):
-        assert _acc("axis_controller", 0x2001, sub) == (0, value.hi)
+    for sub in range(1, 6):                                          # presets: within the VELOCITY bound
+        assert _acc("axis_controller", 0x2001, sub) == (0, proto.AXIS_COMMAND_VALUE_RANGES[
+            proto.AxisCommand.VELOCITY][1])
     half = 1 << (POSITION_BITS - 1)
     assert _acc("position_reader", 0x2100, 1) == (-half, half - 1)
     assert _acc("position_reader", 0x2101, 0) == (0, (1 << POSITION_BITS) - 1)

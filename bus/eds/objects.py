@@ -297,11 +297,25 @@ _AXIS_MFR = (
               description="p of the twin-motor drive law (paper 3.3: 0.10-0.25)"),
     ], "the incremental PI of paper 4 and the drive law of 3.3"),
     compound(0x2001, "Preset rates", ARRAY, [
-        Entry(i + 1, f"{m} rate", INTEGER32, "ro", None, 0, I32_MAX, unit="milli-arcsec/s",
-              description=f"magnitude of the {m} preset (AXIS_COMMAND cmd {i + 1})")
+        Entry(i + 1, f"{m} rate", INTEGER32, "rw", None, 0, proto.VELOCITY_MAX_MARCSEC_S,
+              unit="milli-arcsec/s",
+              description=f"magnitude of the {m} preset (AXIS_COMMAND cmd {i + 1}); takes effect at "
+                          "the next preset command; at most the VELOCITY bound (3 deg/s)")
         for i, m in enumerate(("SLEW", "SET", "GUIDE", "FINE", "TRACK"))
     ], "axis rates of the preset commands; the command's direction byte gives the sign"),
 )
+
+#: Command log of the boards that take commands (issue 10: a command counter and acknowledgement
+#: read back by SDO; the status PDOs have no spare byte for a sequence number).
+_COMMAND_LOG = compound(0x2F01, "Command log", RECORD, [
+    Entry(1, "Commands received", UNSIGNED16, "ro", None, unit="frames",
+          description="command frames (RPDO1) decoded since reset, accepted or refused (wraps)"),
+    Entry(2, "Last command", UNSIGNED8, "ro", None, description="cmd byte of the last one"),
+    Entry(3, "Commands refused", UNSIGNED16, "ro", None, unit="frames",
+          description="refused since reset (EMCY COMMAND_REFUSED sent; saturating)"),
+    Entry(4, "Last refusal", UNSIGNED16, "ro", None,
+          description="reason << 8 | command of the last refusal (its EMCY detail); 0 = none"),
+], "what the host reads back to know a command arrived and whether it was refused")
 
 _READER_MFR = (
     compound(0x2100, "Soft limits", RECORD, [
@@ -396,7 +410,7 @@ KINDS: Dict[str, Kind] = {k.name: k for k in (
                 Pdo(2, "LIMIT", "$NODEID+0x282", note="the axis's reader TPDO2 (node + 2)"),
                 Pdo(3, "STOP_ALL", STOP_ALL_COB_ID, note="host TPDO1, consumed by every board")),
          consumer_heartbeat=(("Host heartbeat", HOST_HB), ("Position reader heartbeat", 0)),
-         manufacturer=_AXIS_MFR),
+         manufacturer=_AXIS_MFR + (_COMMAND_LOG,)),
     Kind("position_reader", "schmidt-fil EnDat position reader",
          int(proto.DeviceType.POSITION_READER), tuple(int(n) for n in proto.READER_NODES),
          "PIC18F4480",
@@ -409,7 +423,7 @@ KINDS: Dict[str, Kind] = {k.name: k for k in (
          tpdos=(Pdo(1, "FOCUS_STATUS", "$NODEID+0x180", _ms(proto.FOCUS_STATUS_PERIOD_US)),),
          rpdos=(Pdo(1, "FOCUS_COMMAND", "$NODEID+0x200"),
                 Pdo(3, "STOP_ALL", STOP_ALL_COB_ID, note="host TPDO1, consumed by every board")),
-         consumer_heartbeat=(("Host heartbeat", HOST_HB),), manufacturer=_FOCUS_MFR),
+         consumer_heartbeat=(("Host heartbeat", HOST_HB),), manufacturer=_FOCUS_MFR + (_COMMAND_LOG,)),
     # -- issue 12, room nodes
     Kind("display", "schmidt-fil digital display unit", int(proto.DeviceType.DISPLAY),
          (int(proto.NodeId.DISPLAY),), "PIC18F4480",
