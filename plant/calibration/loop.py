@@ -248,6 +248,23 @@ def _resolved(fit: FitResult, resolution: float = 0.0) -> str | None:
     return None
 
 
+def _delay_resolved(fit: FitResult, prep: Prepared) -> str | None:
+    """None if the delay description's shift is resolved by the record, else why not.
+
+    ``T ≈ J·ddq(t − τ) ≈ J·ddq − J·τ·jerk``, so ``τ = −c_jerk/J``. A shift under two samples of the
+    record is the sampling of any digital drive itself (zero-order hold, one controller tick) and
+    is what the time-shift diagnostic of :func:`_unexplained` also requires.
+    """
+    if "nz_delay_jerk" not in fit.names or "inertia" not in fit.names:
+        return None
+    J = fit.param("inertia")
+    tau = -fit.param("nz_delay_jerk") / J if J > 0 else 0.0
+    if abs(tau) < 2 * prep.dt_s:
+        return (f"torque-to-motion shift {1e3 * tau:.3g} ms is under two samples ({2e3 * prep.dt_s:.3g} ms): the "
+                "sampling of the drive itself, not resolved as a delay")
+    return None
+
+
 def _coulomb(fit: FitResult) -> float:
     if "coulomb" in fit.names:
         return fit.param("coulomb")
@@ -585,6 +602,8 @@ def run_loop(
                        f"(needs > 0 and z ≥ {zc:.2f})")
             elif c["kind"] in EFFECT_KINDS:
                 why = _resolved(c["fit"], prep.position_resolution)
+            elif c["kind"] == "delay":
+                why = _delay_resolved(c["fit"], prep)
             if why is None and c["kind"] == "time_periodic" and c["motion_share"] >= 0.02:
                 # the motion has a line here: must still predict with a flexible velocity function in both models
                 s0 = cur.spec.copy()
