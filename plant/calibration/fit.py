@@ -59,8 +59,6 @@ MAX_FIT_SAMPLES = 60_000
 #: full-rate samples would buy. (It was 250 000: four times the work per candidate column for
 #: the same fit.)
 MAX_FULL_RATE = 2 * MAX_FIT_SAMPLES
-#: Drop the decimated samples the filters couple to a stop at a reversal (see :func:`reversal_dwells`).
-MASK_REVERSAL_DWELLS = True
 
 
 @dataclasses.dataclass
@@ -95,8 +93,6 @@ class Prepared:
     keep: np.ndarray | None = None
     n_standstill: int = 0
     position_resolution: float = 0.0
-    n_reversal_masked: int = 0
-    reversal_margin_s: float = 0.0
 
     def dec(self, x: np.ndarray) -> np.ndarray:
         """Decimate full-rate column(s) (axis 0) like Matlab ``decimate`` (IIR, zero phase) and keep
@@ -165,8 +161,6 @@ def prepare(
     steps = steps[steps > 1e-12 * max(float(np.ptp(record.position)), 1e-300)]
     resolution = float(steps.min()) if steps.size else 0.0
     del steps
-    dwells = reversal_dwells(record.t_s, record.position)
-    dt_raw = record.dt_s
     if len(record) > MAX_FULL_RATE:
         r0 = math.ceil(len(record) / MAX_FULL_RATE)
         record = dataclasses.replace(
@@ -205,29 +199,9 @@ def prepare(
         exclude_standstill = record.extra.get("format") != "emps"
     keep = None
     n_still = 0
-    n_rev = 0
-    margin = 0.0
     if exclude_standstill:
         v95 = float(np.percentile(np.abs(dq_dec), 95))
         mask = np.abs(dq_dec) >= standstill_frac * v95
-        # samples the filters couple to a reversal dwell (friction indeterminate there, see reversal_dwells)
-        margin = filter_halfwidth_s(fs, cutoff_hz, decimate)
-        if not MASK_REVERSAL_DWELLS:
-            dwells = np.zeros((0, 2))
-        if dwells.size and resolution > 0:
-            # keep the dwells the fit can see: a stop shorter than one decimated sample period is
-            # below the fit's time resolution (a turning point, or ±1-count dither while a motor
-            # crosses a backlash gap or deflects bristles, is not a stop)
-            dwells = dwells[(dwells[:, 1] - dwells[:, 0] + dt_raw) >= decimate * dt]
-        if dwells.size:
-            lo = np.searchsorted(t_dec, dwells[:, 0] - margin, side="left")
-            hi = np.searchsorted(t_dec, dwells[:, 1] + margin, side="right")
-            near = np.zeros(t_dec.size + 1, np.int64)
-            np.add.at(near, lo, 1)
-            np.add.at(near, hi, -1)
-            near = np.cumsum(near[:-1]) > 0
-            n_rev = int((near & mask).sum())
-            mask &= ~near
         n_still = int((~mask).sum())
         if n_still:
             keep = np.flatnonzero(mask)
@@ -235,59 +209,10 @@ def prepare(
     return Prepared(
         record=record, t=t, q=q, dq=dq, ddq=ddq, y=y, dt_s=dt, decim=decimate, cutoff_hz=cutoff_hz,
         t_dec=t_dec, q_dec=q_dec, dq_dec=dq_dec, y_dec=y_dec, keep=keep, n_standstill=n_still,
-        position_resolution=resolution, n_reversal_masked=n_rev, reversal_margin_s=margin,
+        position_resolution=resolution,
     )
 
 
-def reversal_dwells(t: np.ndarray, position: np.ndarray) -> np.ndarray:
-    """Time intervals ``[t_start, t_end]`` (shape (K, 2)) during which the *raw* position stood
-    still at a reversal of the motion.
-
-    A run of equal raw position samples whose neighbours before and after lie on the same side of
-    it (the position turns back) is a reversal dwell; a turning point without a dwell gives a
-    zero-length interval. While the axis is stuck at a reversal the friction torque is whatever
-    balances the drive (anywhere between the static limits), so no friction model can be fitted
-    there — pre-sliding, backlash and Coulomb sticking are told apart only by what happens once the
-    axis moves.
-    """
-    x = np.asarray(position, float)
-    n = x.size
-    if n < 3:
-        return np.zeros((0, 2))
-    change = np.flatnonzero(np.diff(x) != 0.0)  # x[i] != x[i+1]
-    if change.size < 2:
-        return np.zeros((0, 2))
-    starts = np.r_[0, change + 1]  # start index of each run of equal values
-    ends = np.r_[change, n - 1]  # last index of each run
-    vals = x[starts]
-    d = np.sign(np.diff(vals))  # direction of the step after each run (len = runs − 1)
-    turn = np.flatnonzero(d[:-1] != d[1:]) + 1  # runs whose incoming and outgoing steps differ
-    return np.column_stack([t[starts[turn]], t[ends[turn]]])
-
-
-def filter_halfwidth_s(fs: float, cutoff_hz: float, decimate: int, energy: float = 0.99) -> float:
-    """How far a sharp event spreads into the decimated samples the fit sees [s].
-
-    The larger of the half-widths holding ``energy`` of the squared impulse response of (a) the
-    decimation filter alone — a sharp torque the model misses (a stiction breakaway) is filtered by
-    it only — and (b) the position chain (zero-phase Butterworth, then the decimation filter).
-    0.99: what leaks beyond is 1 % of the event's energy. (0.999 — ≈ 110 ms — was tried on the
-    development set and also hid the gap crossing that follows a stop in a true backlash record.)
-    """
-    n = 8 * int(max(decimate, 1) * 60 + 100)
-    x = np.zeros(2 * n + 1)
-    x[n] = 1.0
-    b, a = signal.butter(4, cutoff_hz / (fs / 2))
-    chains = [signal.filtfilt(b, a, x)]
-    if decimate > 1:
-        bc, ac = signal.cheby1(8, 0.05, 0.8 / decimate)
-        chains = [signal.filtfilt(bc, ac, x), signal.filtfilt(bc, ac, chains[0])]
-    out = 0
-    for h in chains:
-        e = h**2
-        cum = e[n] + np.cumsum(e[n + 1 :] + e[n - 1 :: -1][:n])
-        out = max(out, int(np.searchsorted(cum, energy * float(e.sum()))) + 1)
-    return out / fs
 
 
 @dataclasses.dataclass

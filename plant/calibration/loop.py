@@ -578,6 +578,7 @@ def run_loop(
     span = float(np.ptp(prep.q_dec[mov])) if mov.any() else float(np.ptp(prep.q_dec))
     vmax = float(np.percentile(np.abs(prep.dq), 99))
     step = 0
+    jerk_note: dict[str, Any] | None = None
     while len(accepted) < cfg.max_effects and step < cfg.max_effects + 2:
         step += 1
         ctx = _Ctx(prep, cur, present, cfg, linear, span, vmax)
@@ -604,6 +605,8 @@ def run_loop(
                 why = _resolved(c["fit"], prep.position_resolution)
             elif c["kind"] == "delay":
                 why = _delay_resolved(c["fit"], prep)
+                if why is not None:
+                    jerk_note = {"step": step, "share": c["explained_pct"], "gain": c["cv_gain_pct"], "z": c["cv_z"]}
             if why is None and c["kind"] == "time_periodic" and c["motion_share"] >= 0.02:
                 # the motion has a line here: must still predict with a flexible velocity function in both models
                 s0 = cur.spec.copy()
@@ -668,6 +671,13 @@ def run_loop(
         cur = f
         if prep_val is not None:
             val_cur = chosen["val_rms"]
+    if jerk_note is not None and jerk_note["step"] == step and jerk_note["share"] >= cfg.unexplained_min_share_pct:
+        # structure that follows the jerk and predicts, but as a shift under two samples it is not a
+        # resolvable delay: reported, not modelled
+        ool.append({"domain": "time", "frequency": None, "share_pct": jerk_note["share"], "unit": "Hz", "kind": "jerk",
+                    "note": (f"the residual follows the jerk (cross-validated gain {jerk_note['gain']:.1f} %, z = "
+                             f"{jerk_note['z']:.1f}) but as a time shift it is under two samples: not a resolvable "
+                             "delay; a dynamic the rigid model lacks (compliance, current-loop lag)")})
     vf = predict(prep_val, cur) if prep_val is not None else None
     return LoopResult(
         baseline=base, final=cur, accepted=accepted, rejected=rejected, unexplained=_unexplained(prep, cur, cfg, linear, ool),
