@@ -50,15 +50,10 @@ from plant.calibration.io import Record
 __all__ = ["Prepared", "ModelSpec", "FitResult", "prepare", "fit_model", "predict", "effective_n"]
 
 N_BORDER = 49
+#: Records longer than this are reduced before the fit (see :func:`prepare`).
+MAX_FULL_RATE = 250_000
 #: At most this many decimated samples enter the fit (long records: a coarser decimation).
 MAX_FIT_SAMPLES = 60_000
-#: Records longer than this are reduced before the fit (see :func:`prepare`): twice the fit's
-#: sample count, so the effect columns are still built at twice the fit rate and decimated by 2 —
-#: the decimation filter (pass band 0.8 of the fit's Nyquist frequency) then removes what a
-#: nonlinear column (sign, bristle state) folds above the fit band, which is all that more
-#: full-rate samples would buy. (It was 250 000: four times the work per candidate column for
-#: the same fit.)
-MAX_FULL_RATE = 2 * MAX_FIT_SAMPLES
 
 
 @dataclasses.dataclass
@@ -105,11 +100,6 @@ def _decimate(x: np.ndarray, r: int) -> np.ndarray:
     if r <= 1:
         return np.asarray(x, float)
     b, a = signal.cheby1(8, 0.05, 0.8 / r)
-    # unit gain at DC: an even-order Chebyshev-I passes DC at its ripple floor (−0.05 dB, ×0.9886
-    # through filtfilt), which shrank the decimated time axis and positions by 1.1 % (a time line
-    # at 10 Hz appeared at 9.89 Hz; the decimated samples lay 0.4 s early after 30 s). The fit is
-    # unaffected by a common scale; the time and position axes are not.
-    b = b * (np.sum(a) / np.sum(b))
     xf = signal.filtfilt(b, a, x, axis=0, padtype="odd", padlen=3 * (max(len(a), len(b)) - 1))
     nd = xf.shape[0]
     nout = math.ceil(nd / r)
@@ -179,11 +169,7 @@ def prepare(
     if decimate is None:
         decimate = max(1, int(round(fs / 100.0)), math.ceil((len(record) - n_border) / MAX_FIT_SAMPLES))
     if cutoff_hz is None:
-        # fs/10 (EMPS: 100 Hz, the benchmark's 5*20), but never below 1.25 × the band the fit sees
-        # (0.8 of the decimated Nyquist frequency): the torque keeps that whole band, so a position
-        # filtered narrower leaves acceleration torque in the residual that J·ddq cannot follow
-        # (200–250 Hz logs: 20–25 Hz against a 40–50 Hz fit band; reduced long records likewise)
-        cutoff_hz = min(max(fs / 10.0, 1.25 * 0.4 * fs / decimate), 0.45 * fs)
+        cutoff_hz = fs / 10.0
     if not 0 < cutoff_hz < fs / 2:
         raise ValueError(f"cutoff_hz={cutoff_hz} must lie between 0 and the Nyquist frequency {fs / 2:g} Hz")
     if len(record) < n_border + 20 * decimate:
@@ -211,8 +197,6 @@ def prepare(
         t_dec=t_dec, q_dec=q_dec, dq_dec=dq_dec, y_dec=y_dec, keep=keep, n_standstill=n_still,
         position_resolution=resolution,
     )
-
-
 
 
 @dataclasses.dataclass

@@ -248,23 +248,6 @@ def _resolved(fit: FitResult, resolution: float = 0.0) -> str | None:
     return None
 
 
-def _delay_resolved(fit: FitResult, prep: Prepared) -> str | None:
-    """None if the delay description's shift is resolved by the record, else why not.
-
-    ``T ≈ J·ddq(t − τ) ≈ J·ddq − J·τ·jerk``, so ``τ = −c_jerk/J``. A shift under two samples of the
-    record is the sampling of any digital drive itself (zero-order hold, one controller tick) and
-    is what the time-shift diagnostic of :func:`_unexplained` also requires.
-    """
-    if "nz_delay_jerk" not in fit.names or "inertia" not in fit.names:
-        return None
-    J = fit.param("inertia")
-    tau = -fit.param("nz_delay_jerk") / J if J > 0 else 0.0
-    if abs(tau) < 2 * prep.dt_s:
-        return (f"torque-to-motion shift {1e3 * tau:.3g} ms is under two samples ({2e3 * prep.dt_s:.3g} ms): the "
-                "sampling of the drive itself, not resolved as a delay")
-    return None
-
-
 def _coulomb(fit: FitResult) -> float:
     if "coulomb" in fit.names:
         return fit.param("coulomb")
@@ -578,7 +561,6 @@ def run_loop(
     span = float(np.ptp(prep.q_dec[mov])) if mov.any() else float(np.ptp(prep.q_dec))
     vmax = float(np.percentile(np.abs(prep.dq), 99))
     step = 0
-    jerk_note: dict[str, Any] | None = None
     while len(accepted) < cfg.max_effects and step < cfg.max_effects + 2:
         step += 1
         ctx = _Ctx(prep, cur, present, cfg, linear, span, vmax)
@@ -603,10 +585,6 @@ def run_loop(
                        f"(needs > 0 and z ≥ {zc:.2f})")
             elif c["kind"] in EFFECT_KINDS:
                 why = _resolved(c["fit"], prep.position_resolution)
-            elif c["kind"] == "delay":
-                why = _delay_resolved(c["fit"], prep)
-                if why is not None:
-                    jerk_note = {"step": step, "share": c["explained_pct"], "gain": c["cv_gain_pct"], "z": c["cv_z"]}
             if why is None and c["kind"] == "time_periodic" and c["motion_share"] >= 0.02:
                 # the motion has a line here: must still predict with a flexible velocity function in both models
                 s0 = cur.spec.copy()
@@ -671,13 +649,6 @@ def run_loop(
         cur = f
         if prep_val is not None:
             val_cur = chosen["val_rms"]
-    if jerk_note is not None and jerk_note["step"] == step and jerk_note["share"] >= cfg.unexplained_min_share_pct:
-        # structure that follows the jerk and predicts, but as a shift under two samples it is not a
-        # resolvable delay: reported, not modelled
-        ool.append({"domain": "time", "frequency": None, "share_pct": jerk_note["share"], "unit": "Hz", "kind": "jerk",
-                    "note": (f"the residual follows the jerk (cross-validated gain {jerk_note['gain']:.1f} %, z = "
-                             f"{jerk_note['z']:.1f}) but as a time shift it is under two samples: not a resolvable "
-                             "delay; a dynamic the rigid model lacks (compliance, current-loop lag)")})
     vf = predict(prep_val, cur) if prep_val is not None else None
     return LoopResult(
         baseline=base, final=cur, accepted=accepted, rejected=rejected, unexplained=_unexplained(prep, cur, cfg, linear, ool),
