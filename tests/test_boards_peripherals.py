@@ -44,15 +44,32 @@ def test_adc_is_10_bit_floor_with_clipping():
 
 
 def test_can_controller_two_buffers_overflow_counted():
-    """Three frames pending at one service: two kept, one lost and counted."""
-    bus = FakeBus(rx_interrupt=False)
+    """Three frames pending when the receive interrupt is serviced: two kept, one lost and
+    counted (the MCP2515's two buffers, on a bus that delivers at wire times)."""
+    bus = FakeBus()
     got = []
     c = CanController(bus)
     c.on_rx = got.append
+    c.enable_rx_interrupt()
     for i in range(3):
         bus._rx.append(can.Message(arbitration_id=0x201, data=bytes(8), is_extended_id=False))
-    c.poll()
+    c._rx_interrupt()
     assert len(got) == 2 and c.rx_overflows == 1
+
+
+def test_polled_can_controller_services_every_waiting_frame():
+    """On a bus without a receive interrupt (virtual, SocketCAN) a poll services every accepted
+    frame that waited in the bus's queue: the poll period must not lose frames."""
+    bus = FakeBus(rx_interrupt=False)
+    got = []
+    c = CanController(bus)
+    c.accept = lambda i: i == 0x201
+    c.on_rx = got.append
+    for i in range(5):
+        bus._rx.append(can.Message(arbitration_id=0x201, data=bytes(8), is_extended_id=False))
+    bus._rx.append(can.Message(arbitration_id=0x181, data=bytes(8), is_extended_id=False))
+    c.poll()
+    assert len(got) == 5 and c.rx_overflows == 0 and c.rx_frames == 5
 
 
 def test_can_controller_acceptance_filter_drops_foreign_ids_silently():
