@@ -464,6 +464,13 @@ class HostClient:
                 self.logs.status(now, node, _node_name(node), "state",
                                  P.NodeState(f.state).name)
             self._last_state[node] = f.state
+        if (f.state == P.NodeState.BOOT and self._watch_event is not None
+                and node in self.expected_nodes):
+            # a board that rebooted after the power-on (watchdog reset, power back) announces
+            # itself with its boot-up message and waits in PRE-OPERATIONAL: as NMT master the
+            # host starts it again (CiA 302 boot-up handling) and says so
+            self._error(now, _node_name(node), "rebooted", "boot-up message after power-on; NMT start sent")
+            self.send_nmt(P.NmtCommand.START, node)
 
     def watch_heartbeats(self) -> None:
         """Start checking every expected board's heartbeat (after the health check): a board

@@ -124,6 +124,7 @@ class Telescope:
     #: the USB host port of the gateway the client talks through (None: a direct host)
     usb_port: object = None
     _can_snapshot: dict = field(default_factory=dict, repr=False)   # CAN registers at close()
+    _error_counters_snapshot: dict = field(default_factory=dict, repr=False)   # the bus's, at close()
     network_name: str = "basic"     #: the scenario's ``network`` (a name, or "custom" for a list)
 
     def advance_plants(self, now_us: int | None = None) -> None:
@@ -193,7 +194,25 @@ class Telescope:
             "max_latency_us": {P.frame_name(k): v for k, v in s["max_latency_us"].items()},
             "frames_by_id": {P.frame_name(k): v for k, v in s["per_id"].items()},
             "error_frames": s.get("error_frames", 0), "error_bits": s.get("error_bits", 0),
+            # ISO 11898-1 fault confinement per node (bus/network.py): TEC/REC, state,
+            # retransmissions, bus-off count, frames lost to injected loss (issue 11)
+            "error_counters": self._error_counters_snapshot or self._named_error_counters(),
         }
+
+    def _named_error_counters(self) -> dict:
+        """The bus model's per-node fault-confinement counters (TEC/REC, state, retransmissions,
+        bus-off count, frames lost), keyed by board name; ``host`` for the host's own CAN handle
+        when it has one (a direct host, e.g. serve's monitor)."""
+        out = {}
+        handles = [(name, b.can.bus) for name, b in self.boards.items() if getattr(b, "can", None) is not None]
+        if not isinstance(self.client.bus, HidGatewayBus):
+            handles.append(("host", self.client.bus))
+        for name, bus in handles:
+            try:
+                out[name] = self.network.error_state(bus).as_dict()
+            except Exception:  # noqa: BLE001 - a handle not on this network (closed or foreign)
+                continue
+        return out
 
     def board_summary(self) -> dict:
         """One row per board (registry order): node, counters, state; each board adds its own
@@ -247,6 +266,8 @@ class Telescope:
         error registers are kept for the report (they live in the bus model)."""
         if not self._can_snapshot:
             self._can_snapshot.update({name: _can_registers(b) for name, b in self.boards.items()})
+            if self.network is not None:
+                self._error_counters_snapshot.update(self._named_error_counters())
         self.client.close()
         if self.display_log is not None:
             self.display_log.close()
