@@ -7,10 +7,9 @@ own python-can ``virtual`` Bus (python-can copies each frame once per attached B
 the bus load the emulated bus measured over the timed span (busy time incl. stuff bits and
 intermission / elapsed time) and the process's peak memory.
 
-``--network NAME`` chooses the network by name (:func:`networks`: ``boards.registry.NETWORKS``
-once the networks of issue 12 exist there, else ``basic`` = every board of the registry, what
-``build_network`` builds). A network is only a list of board instance names handed to
-:func:`measure`; nothing else here depends on which boards run.
+``--network NAME`` chooses the network by name (:func:`networks`: ``boards.registry.NETWORKS``).
+A network is only a list of board instance names handed to :func:`measure`; nothing else here
+depends on which boards run.
 
 This is a benchmark, not a test: numbers depend on the machine and its load. Targets (issue 12,
 2-core reference machine): ``basic`` ≥ 80× real time; ``full`` ≥ 50× and ≥ 10× the naive design.
@@ -34,17 +33,11 @@ TARGET_RATIO = {"full": 10}
 
 
 def networks() -> dict[str, tuple[str, ...]]:
-    """Network name -> board instance names (registry names, ``boards.registry.BOARD_NAMES``).
+    """Network name -> board instance names: ``boards.registry.NETWORKS`` (``basic``, ``lab``,
+    ``full``)."""
+    from boards.registry import NETWORKS
 
-    The registry's ``NETWORKS`` table when it has one (issue 12: ``basic``, ``lab``, ``full``);
-    otherwise ``basic`` = every board of the registry (the five boards; the host is always there).
-    """
-    from boards import registry
-
-    table = getattr(registry, "NETWORKS", None)
-    if table:
-        return {name: tuple(boards) for name, boards in table.items()}
-    return {"basic": tuple(registry.BOARD_NAMES)}
+    return {name: tuple(boards) for name, boards in NETWORKS.items()}
 
 
 def add_subparser(sub: argparse._SubParsersAction) -> None:
@@ -61,26 +54,10 @@ def add_subparser(sub: argparse._SubParsersAction) -> None:
 
 def _with_boards(scenario, boards):
     """``scenario`` running network ``boards``: a name of :func:`networks` or a list of board
-    instance names of the registry (None: the scenario's own).
-
-    Raises
-    ------
-    ValueError
-        If the scenario schema cannot choose boards yet (no ``network`` field) and ``boards`` is
-        not every board of the registry (what ``build_network`` builds then).
-    """
-    from boards.registry import BOARD_NAMES
-
+    instance names of the registry (None: the scenario's own)."""
     if boards is None:
         return scenario
-    if "network" in type(scenario).model_fields:
-        return scenario.model_copy(update={"network": boards if isinstance(boards, str) else list(boards)})
-    if isinstance(boards, str):
-        boards = networks()[boards]
-    if tuple(boards) == tuple(BOARD_NAMES):
-        return scenario
-    raise ValueError(f"this build cannot choose boards yet (scenario has no 'network' field); "
-                     f"asked for {list(boards)}, the registry has {list(BOARD_NAMES)}")
+    return scenario.model_copy(update={"network": boards if isinstance(boards, str) else list(boards)})
 
 
 def measure(scenario, seconds: float, interface: str, boards=None) -> dict:
