@@ -243,6 +243,9 @@ class HostClient:
     #: periods (assumed; CiA 301 practice is a consumer time of 1.5–3 producer periods).
     HEARTBEAT_TIMEOUT_US = 2_500_000
     HEARTBEAT_CHECK_US = 100_000   #: how often the host checks [µs] (a lost board is logged ≤ 0.1 s late)
+    #: No WEATHER_STATUS (1 s period) for this long makes the weather unsafe [µs]: 2.5 periods,
+    #: the heartbeat rule (assumed; docs/faults.md "Weather").
+    WEATHER_TIMEOUT_US = 2_500_000
     QEI_WRAP = 1 << 24
 
     def __post_init__(self) -> None:
@@ -253,7 +256,9 @@ class HostClient:
         self.weather = WeatherState()          # issue 12, room nodes
         self.dome = DomeState()
         self.display = DisplayState()
-        self.weather_unsafe = False            # HIGH_WIND or RAIN seen and not yet cleared
+        self.weather_unsafe = False            # HIGH_WIND, RAIN or a silent station, not yet cleared
+        self.weather_silent = False            # no WEATHER_STATUS for WEATHER_TIMEOUT_US
+        self._watch_since_us = 0               # when the heartbeat watch started [µs]
         self.weather_stops = 0                 # times the weather stopped the telescope
         self.refused_commands = 0              # commands the host refused (weather)
         # issue 12: motor tachometers and auxiliary encoders (maintenance consoles, §5.2)
@@ -477,6 +482,7 @@ class HostClient:
         silent for :attr:`HEARTBEAT_TIMEOUT_US` is logged at once in ``errors.log`` as
         ``heartbeat-lost`` and listed in :attr:`lost` (the report shows it LOST)."""
         if self._watch_event is None:
+            self._watch_since_us = self.scheduler.now_us
             self._watch_event = self.scheduler.call_every(self.HEARTBEAT_CHECK_US, self._check_heartbeats,
                                                           priority=PRIO_HOST, owner="host-heartbeat-watch")
 
@@ -488,6 +494,7 @@ class HostClient:
                 self._error(now, _node_name(node), "heartbeat-lost",
                             f"no heartbeat for {(now - seen[0]) / 1e6:.2f} s (timeout "
                             f"{self.HEARTBEAT_TIMEOUT_US / 1e6:.1f} s)")
+        self._check_weather_silence(now)
 
     def _on_Emcy(self, cob_id: int, f, now: int) -> None:
         node = P.node_of(cob_id)
@@ -520,19 +527,41 @@ class HostClient:
         if changed and self.logs:
             self.logs.status(now, P.NodeId.WEATHER, NODE_NAMES.get(P.NodeId.WEATHER, "weather"), "weather", desc)
         unsafe = bool(f.flags & WEATHER_UNSAFE)
+        self.weather_silent = False            # the station speaks again: only its flags count
         if unsafe and not self.weather_unsafe:
-            self.weather_unsafe = True
-            self.weather_stops += 1
-            self._error(now, "host", "weather-unsafe", desc + "; stopping the axes, parking the dome")
-            self.stop_all()
-            for axis in self.setpoints:
-                self.setpoints[axis] = 0.0
-            if int(P.NodeId.DOME) in self.expected_nodes:
-                self._send(P.dome_command_cob_id(), P.encode_dome_command(P.DomeCommand.PARK), "dome", "PARK",
-                           "weather")
+            self._weather_turns_unsafe(now, "weather-unsafe", desc)
         elif not unsafe and self.weather_unsafe:
             self.weather_unsafe = False
             self._error(now, "host", "weather-clear", desc + "; motion commands accepted again")
+
+    def _weather_turns_unsafe(self, now: int, error: str, desc: str) -> None:
+        """Stop everything and park the dome: bad weather, or no weather data (fail-safe)."""
+        self.weather_unsafe = True
+        self.weather_stops += 1
+        self._error(now, "host", error, desc + "; stopping the axes, parking the dome")
+        self.stop_all()
+        for axis in self.setpoints:
+            self.setpoints[axis] = 0.0
+        if int(P.NodeId.DOME) in self.expected_nodes:
+            self._send(P.dome_command_cob_id(), P.encode_dome_command(P.DomeCommand.PARK), "dome", "PARK",
+                       "weather")
+
+    def _check_weather_silence(self, now: int) -> None:
+        """No ``WEATHER_STATUS`` for :attr:`WEATHER_TIMEOUT_US` on a network with the station: the
+        weather is unknown, and unknown weather is treated as unsafe (fail-safe, as an observatory
+        safety monitor does: ASCOM ``ISafetyMonitor.IsSafe`` is false without data). It catches a
+        lost station, a stopped one (NMT stop: heartbeat on, PDOs off) and a dead sensor loop."""
+        if int(P.NodeId.WEATHER) not in self.expected_nodes or self.weather_silent:
+            return
+        since = self.weather.t_us if self.weather.t_us >= 0 else self._watch_since_us
+        if now - since > self.WEATHER_TIMEOUT_US:
+            self.weather_silent = True
+            desc = (f"no WEATHER_STATUS for {(now - since) / 1e6:.2f} s (timeout "
+                    f"{self.WEATHER_TIMEOUT_US / 1e6:.1f} s): weather unknown")
+            if self.weather_unsafe:     # already stopped by its flags: say so, do not stop twice
+                self._error(now, "host", "weather-silent", desc)
+            else:
+                self._weather_turns_unsafe(now, "weather-silent", desc)
 
     def _on_DomeStatus(self, cob_id: int, f, now: int) -> None:
         d = self.dome

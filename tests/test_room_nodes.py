@@ -473,6 +473,42 @@ segments:
     assert 0 < rep["room"]["dome"]["peak_rate_deg_s"] <= PARAMS.dome.max_rate_deg_s + 1e-9
 
 
+def test_a_silent_weather_station_is_unsafe_weather(tmp_path):
+    """The weather station loses power at 3 s (fault ``remove_board``). Its last WEATHER_STATUS
+    was at most 1 s before; 2.5 s (``WEATHER_TIMEOUT_US``) after it the host logs
+    ``weather-silent``, sends STOP_ALL and DOME PARK, and refuses the next TRACK: with no weather
+    data the weather is unknown, and unknown is unsafe. Nothing clears it while the station is off."""
+    from host.client import HostClient
+    from host.runner import run_scenario
+    from host.scenario import parse_scenario
+    sc = parse_scenario("""
+name: weather-silent
+seed: 5
+network: [ra-axis, dec-axis, ra-reader, dec-reader, focus, display, dome, weather, gateway]
+faults: [{at_s: 3.0, kind: remove_board, board: weather}]
+segments:
+  - {name: go, axis: ra, mode: set, duration_s: 6.5, dome: follow}
+  - {name: during, axis: ra, mode: track, duration_s: 2}
+""", str(tmp_path / "s.yaml"))
+    res = run_scenario(sc, tmp_path, plots=False)
+    errors = (tmp_path / "errors.log").read_text().splitlines()
+    silent = [ln for ln in errors if " weather-silent " in ln]
+    assert len(silent) == 1, errors
+    t_silent = float(silent[0].split()[0])
+    timeout_s = HostClient.WEATHER_TIMEOUT_US / 1e6
+    # last status in [2, 3] s, then timeout, then at most one 0.1 s check late
+    assert 2.0 + timeout_s < t_silent <= 3.0 + timeout_s + 0.1 + 1e-6
+    assert not any(" weather-clear " in ln for ln in errors)
+    commands = (tmp_path / "commands.log").read_text().splitlines()
+    assert any(ln.split()[1:3] == ["all", "STOP_ALL"] and float(ln.split()[0]) == t_silent for ln in commands)
+    assert any(ln.split()[1:3] == ["dome", "PARK"] and float(ln.split()[0]) == t_silent for ln in commands)
+    refused = [ln for ln in commands if " REFUSED " in ln]
+    assert len(refused) == 1 and "TRACK" in refused[0]
+    assert res.report["weather_stops"] == 1
+    segs = {s["name"]: s for s in res.report["segments"]}
+    assert segs["during"]["setpoint_arcsec_s"] == 0.0
+
+
 def test_dome_segment_without_a_dome_fails_before_running(tmp_path):
     """A segment commanding the dome on a network without one is refused before power-on."""
     from host.runner import run_scenario
