@@ -36,7 +36,7 @@ from bus.eds.objects import KINDS as EDS_KINDS
 __all__ = ["BoardInstance", "BoardSpec", "REGISTRY", "BOARDS", "BOARD_NAMES", "NODE_NAMES",
            "DEFAULT_BOARD_NAMES", "CANOPEN_KINDS", "GATEWAY_KIND",
            "board", "board_of_node", "nodes_of_kind", "NETWORK_KINDS", "NETWORKS", "NETWORK_NAMES",
-           "network_boards", "network_nodes"]
+           "network_boards", "network_nodes", "canopen_nodes"]
 
 
 @dataclass(frozen=True)
@@ -297,8 +297,24 @@ def network_nodes(network: str | list | tuple) -> tuple[int, ...]:
     KeyError, ValueError
         As :func:`network_boards`.
     """
-    return tuple(int(BOARDS[n][1].node_id) for n in network_boards(network)
-                 if BOARDS[n][0].canopen and BOARDS[n][1].node_id != P.NodeId.HOST)
+    return canopen_nodes(network_boards(network))
+
+
+def canopen_nodes(names, table=None) -> tuple[int, ...]:
+    """Node ids of the CANopen boards among board ``names`` (in their order), the host's own node
+    excepted: the one rule for "which boards answer the health check and send heartbeats".
+
+    Parameters
+    ----------
+    names : iterable of str
+        Board instance names.
+    table : dict, optional
+        ``name -> (BoardSpec, BoardInstance)``; default :data:`BOARDS` (the assembly passes the
+        table it builds from, which a test may extend with a new board kind).
+    """
+    table = BOARDS if table is None else table
+    return tuple(int(table[n][1].node_id) for n in names
+                 if table[n][0].canopen and table[n][1].node_id != P.NodeId.HOST)
 
 
 assert all(issubclass(s.firmware, Firmware) for s in REGISTRY)

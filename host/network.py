@@ -57,7 +57,7 @@ import can
 import bus as _bus_pkg  # noqa: F401  (registers the schmidt-sim python-can interface)
 from boards.axis_controller import PRESET_RATES_ARCSEC_S, AxisMode
 from boards.peripherals import Adc
-from boards.registry import BOARD_NAMES, BOARDS, GATEWAY_KIND, BoardInstance, network_boards
+from boards.registry import BOARD_NAMES, BOARDS, GATEWAY_KIND, BoardInstance, canopen_nodes, network_boards
 from boards.tuning import GAINS_SOURCE, design_axis_gains
 from boards.usb_hid import PRODUCT_ID, VENDOR_ID
 from bus import protocol as P
@@ -509,9 +509,7 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient,
     chosen = network_boards(scenario.network if boards is None else list(boards))
     network_name = scenario.network_name if boards is None else "custom"
     # the host's health check expects every chosen CANopen board (not the host's own node)
-    expected = tuple(int(BOARDS[n][1].node_id) for n in chosen
-                     if BOARDS[n][0].canopen and BOARDS[n][1].node_id != P.NodeId.HOST)
-    # (registry.network_nodes is the same rule on the registry's table; BOARDS here may be patched)
+    expected = canopen_nodes(chosen, BOARDS)
 
     # a direct host first, so it hears the boards' boot heartbeats (through the gateway, the
     # gateway's CAN handle is made with the boards and started before them)
