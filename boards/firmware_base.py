@@ -177,7 +177,7 @@ class Board(Firmware, Application):
     bus : can.BusABC
         This board's bus handle (one per board; ``schmidt-sim`` gives the receive interrupt).
     node_id : int
-        CAN node id (1..15).
+        CAN node id (1..127, CiA 301).
     name : str, optional
         Owner name for scheduler errors, e.g. ``"ra-axis"``.
     background_period_us : int
@@ -201,8 +201,8 @@ class Board(Firmware, Application):
                  name: Optional[str] = None, background_period_us: int = 5_000,
                  rx_buffers: int = 2, serial_port=None,
                  telemetry_period_us: int = tlm.SAMPLE_PERIOD_US) -> None:
-        if not 1 <= int(node_id) <= 15:
-            raise ValueError(f"node_id must be 1..15, got {node_id}")
+        if not 1 <= int(node_id) <= 127:      # CiA 301 node ids
+            raise ValueError(f"node_id must be 1..127 (CiA 301), got {node_id}")
         self.scheduler = scheduler
         self.node_id = int(node_id)
         self.name = name or f"{self.KIND}-{self.node_id}"

@@ -28,6 +28,7 @@ from boards.firmware_base import Firmware
 from boards.focus_controller import FocusController
 from boards.position_reader import PositionReader
 from boards.tachometer import Tachometer
+from boards.velocity_reader import AxisVelocityReader
 from boards.usb_gateway import UsbGateway
 from boards.weather import WeatherStation
 from bus import protocol as P
@@ -180,6 +181,12 @@ REGISTRY: tuple[BoardSpec, ...] = (
         instances=(BoardInstance("ra-aux", P.NodeId.AUX_RA, "ra"),
                    BoardInstance("dec-aux", P.NodeId.AUX_DEC, "dec")),
         description="auxiliary encoder, 17-bit A25S through 1:10.8, SSI (§3.2, §5.2)"),
+    BoardSpec(
+        kind="velocity_reader", firmware=AxisVelocityReader, device_type=P.DeviceType.AXIS_VELOCITY,
+        ports=("read_qei_counts",),
+        instances=(BoardInstance("ra-velocity", P.NodeId.VEL_RA, "ra"),
+                   BoardInstance("dec-velocity", P.NodeId.VEL_DEC, "dec")),
+        description="axis velocity reader, friction-roller encoder 1:24.5, QEI (§2.2, §3.4; assumed own node)"),
     # -- end issue 12 --
     BoardSpec(
         kind="usb_gateway", firmware=UsbGateway, device_type=P.DeviceType.HOST, ports=(),
@@ -236,7 +243,8 @@ def nodes_of_kind(kind: str) -> dict[str, int]:
 #: * ``lab``: the paper's ten nodes tested in the lab (§3.4: "position and velocity measurements
 #:   for the two axes, velocity measurements for the four DC motors, digital display unit, along
 #:   with USB-to-CAN node"): 2 axis controllers, 2 readers, 4 tachometers, the display, the gateway;
-#: * ``full``: every board of the registry (Fig. 5's "over sixteen" once all kinds exist).
+#: * ``full``: every board of the registry: 17, Fig. 5's "over sixteen" (the axis velocity
+#:   readers' reason: docs/boards.md).
 #: Kind of the host's own node (the PC's USB-HID gateway, paper §3.4): on every network, an
 #: explicit list included.
 HOST_NODE_KIND = GATEWAY_KIND

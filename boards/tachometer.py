@@ -41,12 +41,32 @@ from boards.peripherals import Qei, Timer
 from bus import protocol as proto
 from bus.scheduler import PRIO_ISR, Scheduler
 
-__all__ = ["Tachometer", "WINDOWS_TICKS", "MIN_COUNTS"]
+__all__ = ["Tachometer", "WINDOWS_TICKS", "MIN_COUNTS", "speed_window"]
 
 #: Candidate speed windows, 5 ms ticks (20 ms .. 1 s), shortest first (assumed, see module doc).
 WINDOWS_TICKS = (4, 10, 20, 50, 100, proto.TACH_MAX_WINDOW_TICKS)
 #: Counts a window must hold before it is used (assumed: 1/16 quantisation of the reading).
 MIN_COUNTS = 16
+
+
+def speed_window(ring, windows_ticks, min_counts: int) -> tuple[int, int]:
+    """The firmware's adaptive speed window: ``(w, d)``, the shortest window ``w`` of
+    ``windows_ticks`` (ticks, shortest first) over which the count changed by at least
+    ``min_counts``, and that change ``d`` [counts]; the longest window the ring holds otherwise
+    (``w = 0`` before the second tick). ``ring``: the extended counts of the last ticks, newest last.
+    Shared by the tachometers and the axis velocity readers (boards/velocity_reader.py)."""
+    c = ring[-1]
+    n = len(ring) - 1
+    w, d = n, 0
+    for w in windows_ticks:
+        if w > n:
+            w = n
+            d = c - ring[0] if n else 0
+            break
+        d = c - ring[-1 - w]
+        if abs(d) >= min_counts:
+            break
+    return w, d
 
 
 class Tachometer(Board):
@@ -120,16 +140,7 @@ class Tachometer(Board):
         c = self.qei.extended
         ring = self._ring
         ring.append(c)
-        n = len(ring) - 1
-        w, d = n, 0
-        for w in WINDOWS_TICKS:
-            if w > n:
-                w = n
-                d = c - ring[0] if n else 0
-                break
-            d = c - ring[-1 - w]
-            if abs(d) >= MIN_COUNTS:
-                break
+        w, d = speed_window(ring, WINDOWS_TICKS, MIN_COUNTS)
         if w == 0:
             self.speed_urad_s, self.window_ticks = 0, 1
         else:

@@ -73,7 +73,10 @@ class NodeId(IntEnum):
     DISPLAY = 0x0C     #: digital display unit (§3.4)
     DOME = 0x0D        #: dome controller (§5.2, tested in the lab on RS232)
     WEATHER = 0x0E     #: weather station (§5.2, tested in the lab on RS232)
+    # -- issue 12: axis velocity readers (the friction-roller encoder of §2.2 on its own node) --
+    VEL_RA = 0x0F      #: RA axis velocity reader (Gurley 8×60 through the 1:24.5 friction roller)
     HOST = 0x10        #: USB-to-CAN host node, PIC18F4550
+    VEL_DEC = 0x11     #: DEC axis velocity reader
 
 
 NODE_RA_AXIS = NodeId.RA_AXIS
@@ -89,10 +92,11 @@ READER_NODES = (NodeId.RA_READER, NodeId.DEC_READER)
 ROOM_NODES = (NodeId.DISPLAY, NodeId.DOME, NodeId.WEATHER)
 TACH_NODES = (NodeId.TACH_RA_1, NodeId.TACH_RA_2, NodeId.TACH_DEC_1, NodeId.TACH_DEC_2)
 AUX_NODES = (NodeId.AUX_RA, NodeId.AUX_DEC)
+VEL_NODES = (NodeId.VEL_RA, NodeId.VEL_DEC)
 #: Every board node of the protocol (a network built from a scenario may use a subset:
 #: ``boards.registry.NETWORKS``).
 BOARD_NODES = (NodeId.RA_AXIS, NodeId.DEC_AXIS, NodeId.RA_READER, NodeId.DEC_READER, NodeId.FOCUS,
-               *TACH_NODES, *AUX_NODES, *ROOM_NODES)
+               *TACH_NODES, *AUX_NODES, *ROOM_NODES, *VEL_NODES)
 ALL_NODES = BOARD_NODES + (NodeId.HOST,)
 
 
@@ -107,6 +111,7 @@ class DeviceType(IntEnum):
     DISPLAY = 0x06         #: issue 12: digital display unit
     DOME = 0x07            #: issue 12: dome controller
     WEATHER = 0x08         #: issue 12: weather station
+    AXIS_VELOCITY = 0x09   #: issue 12: axis velocity reader (friction-roller encoder)
     HOST = 0x10
 
 
@@ -122,6 +127,7 @@ DEVICE_TYPE_OF_NODE: dict[int, DeviceType] = {
     NodeId.WEATHER: DeviceType.WEATHER,
     **{n: DeviceType.TACHOMETER for n in TACH_NODES},
     **{n: DeviceType.AUX_ENCODER for n in AUX_NODES},
+    **{n: DeviceType.AXIS_VELOCITY for n in VEL_NODES},
     NodeId.HOST: DeviceType.HOST,
 }
 
@@ -132,6 +138,7 @@ NODE_NAME: dict[int, str] = {
     NodeId.DISPLAY: "DISPLAY", NodeId.DOME: "DOME", NodeId.WEATHER: "WEATHER",
     NodeId.TACH_RA_1: "TACH_RA_1", NodeId.TACH_RA_2: "TACH_RA_2", NodeId.TACH_DEC_1: "TACH_DEC_1",
     NodeId.TACH_DEC_2: "TACH_DEC_2", NodeId.AUX_RA: "AUX_RA", NodeId.AUX_DEC: "AUX_DEC",
+    NodeId.VEL_RA: "VEL_RA", NodeId.VEL_DEC: "VEL_DEC",
     NodeId.HOST: "HOST",
 }
 
@@ -162,6 +169,9 @@ WEATHER_STATUS_PERIOD_US = 1_000_000
 TACH_STATUS_PERIOD_US = 5_000
 #: issue 12: one AUX_POSITION per auxiliary encoder per 10 ms (as POSITION, §3.4's 10 ms samples).
 AUX_POSITION_PERIOD_US = 10_000
+#: issue 12: one AXIS_VELOCITY per axis velocity reader per 10 ms (its ISR period; §3.4's 10 ms
+#: samples, as POSITION).
+AXIS_VELOCITY_PERIOD_US = 10_000
 
 
 # ------------------------------------------------------------------------------------------------
@@ -1350,6 +1360,60 @@ _add(FrameSpec("AUX_POSITION", FC_STATUS, AUX_NODES, "node", AUX_POSITION_PERIOD
 ), AuxPosition, encode_aux_position, decode_aux_position,
     "auxiliary encoder to host, every 10 ms (paper 3.2 A25S through 1:10.8, 5.2 cross-check)"))
 
+# -- issue 12: axis velocity readers ---------------------------------------------------------------
+
+#: Largest averaging window of the axis velocity reader, in 10 ms ticks (1 s; boards/velocity_reader.py).
+VEL_MAX_WINDOW_TICKS = 100
+
+
+class AxisVelocity(NamedTuple):
+    window_ticks: int       #: 10 ms ticks the rate is averaged over (1..100)
+    counts: int             #: friction-roller encoder count, low 16 bits of the QEI count (wraps)
+    rate_marcsec_s: int     #: axis rate, milli-arcsec/s (i32, saturating)
+
+
+def axis_velocity_cob_id(node: int) -> int:
+    """COB-ID of ``AXIS_VELOCITY`` sent by velocity reader ``node`` (0x0F, 0x11): 0x180 + node (TPDO1)."""
+    return FC_STATUS + _check_node("AXIS_VELOCITY", node, VEL_NODES)
+
+
+_S_AXIS_VELOCITY = struct.Struct("<BBHi")
+_DT_VEL = DeviceType.AXIS_VELOCITY
+
+
+def encode_axis_velocity(window_ticks: int, counts: int, rate_marcsec_s: int) -> bytes:
+    """Encode ``AXIS_VELOCITY`` (0x180 + velocity reader node): averaging window in 10 ms ticks
+    (1..100, EncodeError otherwise), encoder count u16 (wraps), axis rate milli-arcsec/s i32
+    (saturates)."""
+    f = "AXIS_VELOCITY"
+    try:
+        if not 1 <= window_ticks <= VEL_MAX_WINDOW_TICKS:
+            raise EncodeError(f, "window_ticks", f"1..{VEL_MAX_WINDOW_TICKS}", window_ticks)
+        return _S_AXIS_VELOCITY.pack(_DT_VEL, window_ticks, counts & 0xFFFF,
+                                     _clamp(rate_marcsec_s, I32_MIN, I32_MAX))
+    except (struct.error, TypeError) as exc:
+        raise _not_int(f, exc) from None
+
+
+def decode_axis_velocity(data) -> AxisVelocity:
+    """Decode ``AXIS_VELOCITY``; raises MalformedFrame."""
+    dt, window, counts, rate = _unpack(_S_AXIS_VELOCITY, data, "AXIS_VELOCITY", _DT_VEL)
+    if not 1 <= window <= VEL_MAX_WINDOW_TICKS:
+        raise MalformedFrame("AXIS_VELOCITY", "window_ticks", f"1..{VEL_MAX_WINDOW_TICKS}", window)
+    return AxisVelocity(window, counts, rate)
+
+
+_add(FrameSpec("AXIS_VELOCITY", FC_STATUS, VEL_NODES, "node", AXIS_VELOCITY_PERIOD_US, (
+    Field("window_ticks", 1, 8, False, 1, VEL_MAX_WINDOW_TICKS, "id", unit="10 ms ticks",
+          dbc_unit="ticks", doc="ticks the rate is averaged over (grows to 100 at low speed)"),
+    Field("counts", 2, 16, False, 0, 0xFFFF, "wrap", unit="counts", dbc_unit="counts",
+          doc="friction-roller encoder (Gurley 8x60 through 1:24.5), low 16 bits of the QEI count"),
+    Field("rate_marcsec_s", 4, 32, True, I32_MIN, I32_MAX, "clamp", unit="milli-arcsec/s",
+          dbc_name="axis_rate", factor=0.001, dbc_unit="arcsec/s",
+          doc="axis rate (window 100: the 1 s mean, fewer than 256 counts in 1 s)"),
+), AxisVelocity, encode_axis_velocity, decode_axis_velocity,
+    "axis velocity reader to host, every 10 ms (paper 2.2 friction-roller encoder, 3.4 lab network)"))
+
 # -- end issue 12 tachometer/auxiliary-encoder block -----------------------------------------------
 
 #: Per-command DBC signal for ``AXIS_COMMAND.value`` (the DBC multiplexes it by ``cmd``):
@@ -1385,7 +1449,7 @@ def _message_name(spec: FrameSpec, node) -> str:
         return spec.name
     if spec.nodes in (AXIS_NODES, READER_NODES):   # RA / DEC is unambiguous here
         return f"{spec.name}_{'RA' if node in (NodeId.RA_AXIS, NodeId.RA_READER) else 'DEC'}"
-    if spec.nodes in (TACH_NODES, AUX_NODES):      # TACH_STATUS_RA_1, AUX_POSITION_DEC
+    if spec.nodes in (TACH_NODES, AUX_NODES, VEL_NODES):   # TACH_STATUS_RA_1, AXIS_VELOCITY_DEC
         return f"{spec.name}_{NODE_NAME[node].split('_', 1)[1]}"
     return f"{spec.name}_{NODE_NAME[node]}"
 
@@ -1492,7 +1556,7 @@ def load_dbc():
 
 _DBC_NODES = ("HOST", "RA_AXIS", "DEC_AXIS", "RA_READER", "DEC_READER", "FOCUS",
               "TACH_RA_1", "TACH_RA_2", "TACH_DEC_1", "TACH_DEC_2", "AUX_RA", "AUX_DEC",
-              "DISPLAY", "DOME", "WEATHER")
+              "DISPLAY", "DOME", "WEATHER", "VEL_RA", "VEL_DEC")
 
 
 def _fmt(x: float) -> str:

@@ -41,6 +41,8 @@ _AXIS_OF_NODE = {node: axis for axis, node in AXIS_NODES.items()}
 TACH_MOTOR_OF_NODE = {int(i.node_id): (i.axis, i.motor) for s in REGISTRY if s.kind == "tachometer"
                       for i in s.instances}
 AUX_AXIS_OF_NODE = {int(i.node_id): i.axis for s in REGISTRY if s.kind == "aux_encoder" for i in s.instances}
+#: issue 12: axis velocity reader node -> axis
+VEL_AXIS_OF_NODE = {int(i.node_id): i.axis for s in REGISTRY if s.kind == "velocity_reader" for i in s.instances}
 _READER_AXIS = {node: axis for axis, node in READER_NODES.items()}
 #: EDS (board kind) of each CANopen node: what the host's SDO client reads it with (the USB
 #: gateway, the host's own node, has none).
@@ -147,6 +149,16 @@ class TachState:
     frames: int = 0
     t_us: int = -1
     _raw16: int | None = None
+
+
+@dataclass
+class AxisVelocityState:
+    """Latest ``AXIS_VELOCITY`` of one axis velocity reader (issue 12)."""
+
+    rate_arcsec_s: float = 0.0      # the board's axis rate estimate [arcsec/s]
+    window_ticks: int = 0           # 10 ms ticks that estimate averages over
+    frames: int = 0
+    t_us: int = -1
 
 
 @dataclass
@@ -263,6 +275,7 @@ class HostClient:
         self.refused_commands = 0              # commands the host refused (weather)
         # issue 12: motor tachometers and auxiliary encoders (maintenance consoles, §5.2)
         self.tachs: dict[int, TachState] = {}
+        self.axis_velocity: dict[str, AxisVelocityState] = {}   # axis -> its velocity reader's last frame
         self.aux: dict[str, AuxState] = {}
         self.tach_counts_per_rev: dict[int, int] = {}
         self.aux_arcsec_per_count: dict[int, float] = {}
@@ -293,6 +306,7 @@ class HostClient:
             P.Limit: self._on_Limit,
             P.WeatherStatus: self._on_WeatherStatus, P.DomeStatus: self._on_DomeStatus,
             P.DisplayStatus: self._on_DisplayStatus, P.TachStatus: self._on_TachStatus, P.AuxPosition: self._on_AuxPosition,
+            P.AxisVelocity: self._on_AxisVelocity,
         }
         if hasattr(self.bus, "set_rx_callback"):
             self.bus.set_rx_callback(self.poll)
@@ -402,6 +416,14 @@ class HostClient:
         st.window_ticks = f.window_ticks
         st.frames += 1
         st.t_us = now
+
+    def _on_AxisVelocity(self, cob_id: int, f, now: int) -> None:
+        axis = VEL_AXIS_OF_NODE[P.node_of(cob_id)]
+        st = self.axis_velocity.get(axis)
+        if st is None:
+            st = self.axis_velocity[axis] = AxisVelocityState()
+        st.rate_arcsec_s, st.window_ticks, st.t_us = f.rate_marcsec_s * 1e-3, f.window_ticks, now
+        st.frames += 1
 
     def _on_AuxPosition(self, cob_id: int, f, now: int) -> None:
         node = P.node_of(cob_id)

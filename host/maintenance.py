@@ -25,6 +25,8 @@ Everything here is computed from what :class:`host.client.HostClient` decoded (`
   sampling time, so during a slew the two boards' sampling skew shows up (up to rate × 10 ms);
   the report's statistics therefore use only frames while the main encoder moves at most
   ``HostClient.AUX_COMPARE_MAX_RATE_ARCSEC_S`` (100″/s: skew ≤ 1″); ``sensor.log`` has every one.
+* **axis rate of the velocity reader** [arcsec/s] (``full`` network): the friction-roller
+  encoder's node's own estimate (``AXIS_VELOCITY``), beside the axis controller's QEI rate.
 * **motor currents**: the ``AXIS_AUX`` shunt ADC counts (already in ``sensor.log``); the report adds
   each motor's peak.
 """
@@ -60,6 +62,11 @@ def _auxes(board_names) -> list[str]:
     return [i.axis for n in board_names for s, i in (BOARDS[n],) if s.kind == "aux_encoder"]
 
 
+def _velocity_axes(board_names) -> list[str]:
+    """Axes of the axis velocity readers among ``board_names``."""
+    return [i.axis for n in board_names for s, i in (BOARDS[n],) if s.kind == "velocity_reader"]
+
+
 def sensor_columns(board_names) -> tuple[str, ...]:
     """The ``sensor.log`` columns the maintenance quantities add for a network of
     ``board_names`` (none for a network without tachometers or auxiliary encoders, e.g. basic)."""
@@ -68,6 +75,8 @@ def sensor_columns(board_names) -> tuple[str, ...]:
         cols += [f"{axis}_motor_{motor}_speed_rad_s", f"{axis}_gear_reduction_{motor}"]
     for axis in _auxes(board_names):
         cols += [f"{axis}_aux_pos_arcsec", f"{axis}_aux_minus_main_arcsec"]
+    for axis in _velocity_axes(board_names):
+        cols.append(f"{axis}_velocity_node_arcsec_s")
     return tuple(cols)
 
 
@@ -86,6 +95,7 @@ class Maintenance:
         self.client = client
         self.tachs = _tachs(board_names)
         self.auxes = _auxes(board_names)
+        self.velocity_axes = _velocity_axes(board_names)
         self.columns = sensor_columns(board_names)
         self._hist: deque = deque()     # (t_us, {axis: axis counts}, {node: motor counts}), 1 s
         # every sample once every tachometer has reported (segment reductions): compact int64
@@ -127,6 +137,9 @@ class Maintenance:
             ok = st is not None and st.t_us >= 0
             out += [st.angle_arcsec if ok else math.nan,
                     st.diff_arcsec if ok and st.diff_arcsec is not None else math.nan]
+        for axis in self.velocity_axes:
+            st = c.axis_velocity.get(axis)
+            out.append(st.rate_arcsec_s if st is not None and st.t_us >= 0 else math.nan)
         return tuple(out)
 
     def reduction(self, a: tuple, b: tuple, axis: str, node: int) -> float | None:

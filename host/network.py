@@ -396,6 +396,12 @@ class _LivePresets(Mapping):
         return len(self._MODES) * len(AXES)
 
 
+def _qei_counts_per_rev(ap) -> int:
+    """Friction-roller encoder counts per axis revolution (§2.2: 4.608e6 ppr × 24.5), read by the
+    axis controller's QEI and by the axis velocity reader."""
+    return int(round(ap.encoders.incremental_counts_per_rev * ap.encoders.roller_ratio))
+
+
 def _axis_settings(b: _Build, i: BoardInstance) -> dict:
     ap = b.params.axes[i.axis]
     cc = getattr(b.scenario.controller, i.axis)
@@ -406,7 +412,7 @@ def _axis_settings(b: _Build, i: BoardInstance) -> dict:
                        **{f"model_{k}": v for k, v in gd.items() if k not in ("kp", "ki")}}
     return dict(safety=b.scenario.safety_limits(), kp=g.kp if cc.kp is None else cc.kp, ki=g.ki if cc.ki is None else cc.ki,
                 u_max=1.0 if cc.u_max is None else cc.u_max, counter_fraction=p, law=ap.drive.preload_law,
-                qei_counts_per_rev=int(round(ap.encoders.incremental_counts_per_rev * ap.encoders.roller_ratio)),
+                qei_counts_per_rev=_qei_counts_per_rev(ap),
                 shunt_ohm=ap.motor.shunt_ohm, overcurrent_a=ap.motor.rated_current_a)
 
 
@@ -440,6 +446,7 @@ SETTINGS: dict[str, Callable[[_Build, BoardInstance], dict]] = {
     "weather": _weather_settings,
     # issue 12: encoder resolutions from the parameter file (axes.<axis>.tachometer / .aux_encoder)
     "tachometer": lambda b, i: {"counts_per_rev": b.params.axes[i.axis].tachometer.counts_per_rev},
+    "velocity_reader": lambda b, i: {"qei_counts_per_rev": _qei_counts_per_rev(b.params.axes[i.axis])},
     "aux_encoder": lambda b, i: {"bits": b.params.axes[i.axis].aux_encoder.bits,
                                  "reduction": b.params.axes[i.axis].aux_encoder.reduction},
 }

@@ -51,6 +51,8 @@ def _expected_parameters(board) -> dict:
                 (0x2500, 3): board.clear_hold_us // 1_000_000, (0x2500, 4): round(board.humidity_limit_pct * 100)}
     if board.KIND == "tachometer":
         return {(0x2300, 0): board.counts_per_rev}
+    if board.KIND == "velocity_reader":
+        return {(0x2300, 0): board.qei_counts_per_rev}
     if board.KIND == "aux_encoder":
         return {(0x2400, 2): int(board.turns_seeded), (0x2400, 3): 17}
     return {(0x2200, 1): board.travel_halfsteps, (0x2200, 2): round(1e6 / board.step_period_us)}

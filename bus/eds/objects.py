@@ -399,6 +399,10 @@ _AUX_MFR = (
               description="single-turn word width (17: Gurley A25S, paper 3.2)"),
     ], "the A25S through the 1:10.8 reduction (paper 3.2); turn count: boards/aux_encoder.py"),
 )
+_VEL_MFR = (
+    var(0x2300, "Encoder counts per revolution", UNSIGNED32, "ro", None, 1, I32_MAX, unit="counts/rev",
+        description="friction-roller encoder counts per axis revolution (4.608e6 x 24.5, paper 2.2)"),
+)
 # -- end issue 12 objects ---------------------------------------------------------------------
 
 KINDS: Dict[str, Kind] = {k.name: k for k in (
@@ -456,6 +460,10 @@ KINDS: Dict[str, Kind] = {k.name: k for k in (
          tpdos=(Pdo(1, "AUX_POSITION", "$NODEID+0x180", _ms(proto.AUX_POSITION_PERIOD_US)),),
          rpdos=(Pdo(1, "POSITION", "$NODEID+0x179", note="its axis reader TPDO1 (0x180 + node - 7): seeds the turn count"),),
          consumer_heartbeat=(("Host heartbeat", HOST_HB),), manufacturer=_AUX_MFR),
+    Kind("velocity_reader", "schmidt-fil axis velocity reader", int(proto.DeviceType.AXIS_VELOCITY),
+         tuple(int(n) for n in proto.VEL_NODES), "PIC18F4431",
+         tpdos=(Pdo(1, "AXIS_VELOCITY", "$NODEID+0x180", _ms(proto.AXIS_VELOCITY_PERIOD_US)),),
+         rpdos=(), consumer_heartbeat=(("Host heartbeat", HOST_HB),), manufacturer=_VEL_MFR),
     # -- end issue 12 kinds --
     Kind("host", "schmidt-fil host (USB-to-CAN gateway)", int(proto.DeviceType.HOST),
          (int(proto.NodeId.HOST),), "PIC18F4550",
@@ -518,7 +526,8 @@ PDO_FRAMES = ("AXIS_STATUS", "AXIS_AUX", "AXIS_COMMAND", "LIMIT", "POSITION", "F
               "FOCUS_COMMAND", "STOP_ALL",
               "TACH_STATUS", "AUX_POSITION",   # issue 12: tachometers, auxiliary encoders
               # issue 12, room nodes
-              "DISPLAY_STATUS", "DOME_STATUS", "DOME_COMMAND", "WEATHER_STATUS")
+              "DISPLAY_STATUS", "DOME_STATUS", "DOME_COMMAND", "WEATHER_STATUS",
+              "AXIS_VELOCITY")                 # issue 12: axis velocity readers
 PROCESS_DATA_BASE = 0x3000
 _TYPE_BY_BYTES = {(1, False): UNSIGNED8, (2, False): UNSIGNED16, (3, False): UNSIGNED24,
                   (4, False): UNSIGNED32, (1, True): INTEGER8, (2, True): INTEGER16,
