@@ -200,7 +200,8 @@ class UsbGateway(Firmware):
 
     # ------------------------------------------------------------------ CAN side
     def _accept(self, arbitration_id: int) -> bool:
-        return R.filter_matches(self.filters, arbitration_id)
+        filters = self.filters
+        return not filters or R.filter_matches(filters, arbitration_id)
 
     def _program_filters(self) -> None:
         bus = self.can.bus
