@@ -186,6 +186,14 @@ def encode_report(kind: int, frames: Sequence, flags: int = 0, seq: int = 0) -> 
     return _S_REPORT[len(frames)].pack(*vals)
 
 
+def pack_report(n: int, values) -> bytes:
+    """The 64-byte report of ``n`` frames from its fields in order, unchecked: kind, n, flags,
+    seq, then per frame id, DLC, data (padded with zeros), timestamp_us (:func:`encode_report`
+    checks and normalises its arguments, then packs the same way; the gateway firmware's IN
+    path, whose frames come off the CAN bus, packs directly)."""
+    return _S_REPORT[n].pack(*values)
+
+
 def decode_report(report, expect_kind: int) -> Report:
     """Decode a 64-byte IN or OUT report; raises :class:`ReportError` naming the field.
 
@@ -211,6 +219,28 @@ def decode_report(report, expect_kind: int) -> Report:
             _fail(name, f"frame[{i}].dlc", "0..8", dlc, MalformedReason.DLC)
         frames.append(Frame(aid, data[:dlc], ts if expect_kind == KIND_IN else 0))
     return Report(kind, tuple(frames), flags, seq)
+
+
+def decode_in_frames(report) -> tuple:
+    """:func:`decode_report` of an IN report, as ``(flags, seq, frames)`` with each frame a plain
+    ``(arbitration_id, data, timestamp_us)`` tuple (no :class:`Frame`/:class:`Report` objects: the
+    host's receive path, every report). Same checks; a report :func:`decode_report` refuses
+    raises the same :class:`ReportError`."""
+    b = bytes(report)
+    if len(b) == REPORT_SIZE:
+        kind, count, flags, seq = _S_HEADER.unpack_from(b, 0)
+        if kind == KIND_IN and count <= FRAMES_PER_REPORT:
+            vals = _S_SLOTS[count].unpack_from(b, _S_HEADER.size)
+            frames = []
+            for i in range(0, 4 * count, 4):
+                aid, dlc = vals[i], vals[i + 1]
+                if aid > 0x7FF or dlc > 8:
+                    break
+                frames.append((aid, vals[i + 2][:dlc], vals[i + 3]))
+            else:
+                return flags, seq, frames
+    rep = decode_report(b, KIND_IN)          # raises ReportError naming the field
+    return rep.flags, rep.seq, [tuple(f) for f in rep.frames]
 
 
 def encode_status(s: Status) -> bytes:

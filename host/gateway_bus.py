@@ -43,7 +43,7 @@ class HidGatewayBus(can.BusABC):
         self.device = device
         self.channel = channel
         self.channel_info = f"USB-HID CAN gateway ({channel})"
-        self._rx: Deque[R.Frame] = deque()      # decoded frames not yet returned
+        self._rx: Deque[tuple] = deque()      # decoded frames not yet returned
         #: the in-process device's ``sim_read_report`` (bytes, no list of ints), else None
         self._read_bytes = getattr(device, "sim_read_report", None)
         self._last_seq: Optional[int] = None
@@ -89,15 +89,15 @@ class HidGatewayBus(can.BusABC):
     # -- receive -------------------------------------------------------------------------------
     def _take(self, report) -> None:
         try:
-            rep = R.decode_report(report, R.KIND_IN)
+            flags, seq, frames = R.decode_in_frames(report)
         except R.ReportError:
             self.malformed_reports += 1
             return
         if self._last_seq is not None:
-            self.lost_reports += (rep.seq - self._last_seq - 1) % 256
-        self._last_seq = rep.seq
-        self.flags_seen |= rep.flags
-        self._rx.extend(rep.frames)          # Frame(arbitration_id, data, timestamp_us) tuples
+            self.lost_reports += (seq - self._last_seq - 1) % 256
+        self._last_seq = seq
+        self.flags_seen |= flags
+        self._rx.extend(frames)              # (arbitration_id, data, timestamp_us) tuples
 
     def _read_reports(self, timeout: Optional[float]) -> None:
         """Take every IN report the device has (waiting up to ``timeout`` for the first)."""
@@ -136,7 +136,7 @@ class HidGatewayBus(can.BusABC):
 
     def drain_frames(self) -> list:
         """Every frame available now, oldest first, as ``(arbitration_id, data, timestamp_us)``
-        tuples (``bus.hid_reports.Frame``), without building ``can.Message`` objects: the same
+        tuples, without building ``can.Message`` objects: the same
         frames, in the same order, as ``recv(0)`` returns one by one until ``None`` (bus
         filters applied; never waits). The host client's receive path uses it.
         """
