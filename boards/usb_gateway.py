@@ -106,7 +106,10 @@ class UsbGateway(Firmware):
         # frame: a 2-buffer limit there would be an artefact of the emulation, not the board's
         # (the health check's five SDO answers within 1 ms were lost to it).
         has_irq = hasattr(bus, "set_rx_callback")
-        self.can = CanController(bus, rx_buffers=2 if has_irq else 1 << 30)
+        # Transmit: one of the MCP2515's three buffers at a time (assumed firmware policy): with
+        # three loaded at equal TXP the controller would send the last-loaded first (DS21801
+        # §3.2), and a gateway must not reorder the PC's frames (SDO segments, command sequences)
+        self.can = CanController(bus, rx_buffers=2 if has_irq else 1 << 30, tx_buffers=1)
         self.can.accept = self._accept
         self.can.on_rx = self._on_can_rx
         self.usb = usb if usb is not None else UsbHidInterface()
