@@ -61,6 +61,9 @@ _POS_HALF = 1 << 28
 _POS_REV = 1 << 29
 _POS_BAD = int(proto.PositionFlags.CRC_ERROR | proto.PositionFlags.INVALID)
 
+#: the flag as a plain int (an IntFlag attribute and int() per read otherwise)
+_TURNS_UNKNOWN = int(proto.AuxFlags.TURNS_UNKNOWN)
+
 
 class AuxEncoder(Board):
     """Auxiliary absolute encoder firmware (PIC18F4480, SSI).
@@ -99,6 +102,7 @@ class AuxEncoder(Board):
         if not float(reduction) > 0:
             raise ValueError(f"reduction must be > 0, got {reduction}")
         super().__init__(scheduler, bus, node_id, name=name, background_period_us=period_us)
+        self._position_cob = proto.aux_position_cob_id(self.node_id)   # fixed: not per read
         self.bits = int(bits)
         self.word_counts = 1 << self.bits
         self.reduction = float(reduction)
@@ -152,8 +156,8 @@ class AuxEncoder(Board):
                 self.turns -= 1
         self.word = w
         self.aux_counts = self.turns * n + w
-        flags = 0 if self.turns_seeded else int(proto.AuxFlags.TURNS_UNKNOWN)
-        self.queue(proto.aux_position_cob_id(self.node_id), proto.encode_aux_position(flags, self.aux_counts))
+        flags = 0 if self.turns_seeded else _TURNS_UNKNOWN
+        self.queue(self._position_cob, proto.encode_aux_position(flags, self.aux_counts))
 
     # ------------------------------------------------------------------ CAN receive
     def handle_frame(self, arbitration_id: int, data: bytes) -> None:

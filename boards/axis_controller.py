@@ -186,6 +186,9 @@ class AxisController(Board):
         super().__init__(scheduler, bus, node_id, name=name,
                          background_period_us=tick_us, serial_port=serial_port,
                          telemetry_period_us=int(tick_us) * int(status_every_ticks))
+        # COB-IDs of the periodic frames (fixed node id: not computed per tick)
+        self._status_cob = proto.axis_status_cob_id(self.node_id)
+        self._aux_cob = proto.axis_aux_cob_id(self.node_id)
         self.tick_us = int(tick_us)
         self.kp0, self.ki0, self.u_max = float(kp), float(ki), float(u_max)
         self.counter_fraction = float(counter_fraction)
@@ -350,10 +353,10 @@ class AxisController(Board):
             u_q15 = duty_to_q15(self.pi.u)
             flags = self.status_flags()
             delta = -32768 if delta < -32768 else (32767 if delta > 32767 else delta)
-            self.queue(proto.axis_status_cob_id(self.node_id),
+            self.queue(self._status_cob,
                        proto.encode_axis_status(self.mode, flags, u_q15, self.qei.extended))
             self.aux_seq = (self.aux_seq + 1) & 0xFF
-            self.queue(proto.axis_aux_cob_id(self.node_id),
+            self.queue(self._aux_cob,
                        proto.encode_axis_aux(self.aux_seq, self.adc_a, self.adc_b, delta))
             if self.telemetry_enabled:
                 if self.setpoint_arcsec_s != self._tlm_sp:      # convert only on a change

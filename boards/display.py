@@ -38,6 +38,7 @@ __all__ = ["DisplayUnit", "format_hms", "format_dms", "STALE_TEXT"]
 
 _POS_REV = 1 << 29
 _ARCSEC_PER_POS_COUNT = ARCSEC_PER_REV / _POS_REV
+_POSITION_INVALID = int(proto.PositionFlags.INVALID)    # a plain int: tested for every frame
 STALE_TEXT = {"ha": "--:--:--.-", "dec": "---:--:--", "rate": "------", "mode": "----"}
 
 
@@ -134,7 +135,7 @@ class DisplayUnit(Board):
         if i is not None:
             p = proto.decode_position(data)
             self.frames_received += 1
-            if not p.flags & proto.PositionFlags.INVALID:
+            if not p.flags & _POSITION_INVALID:
                 self._pos[i] = (p.pos_counts, now)
             return
         i = self._axis_ids.get(arbitration_id)

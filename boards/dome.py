@@ -62,6 +62,7 @@ ARRIVE_TOL_DEG = 0.1
 PROFILE_DECEL_FRACTION = 0.8
 _POS_HALF = 1 << 28
 _DEG_PER_POS_COUNT = 360.0 / (1 << 29)
+_POSITION_INVALID = int(proto.PositionFlags.INVALID)    # a plain int: tested for every frame
 
 
 def slit_azimuth_deg(ha_deg: float, dec_deg: float, latitude_deg: float) -> float:
@@ -274,7 +275,7 @@ class DomeController(Board):
         axis = self._pos_ids.get(arbitration_id)
         if axis is not None:
             p = proto.decode_position(data)
-            if not p.flags & proto.PositionFlags.INVALID:
+            if not p.flags & _POSITION_INVALID:
                 self._pos[axis] = (p.pos_counts, self.scheduler.now_us)
             self.position_frames += 1
             return

@@ -301,6 +301,24 @@ class Adc:
 FILTER_BEFORE_QUEUE_BUSES = ("SimBus", "SocketcanBus")
 
 
+#: Hardware transmit buffers of the boards' CAN controllers: TXB0..TXB2 on the MCP2515 (DS21801
+#: §3.1) and on the PIC18F4480's ECAN module in mode 0 (DS39637 §24.2).
+TX_BUFFERS = 3
+
+
+def tx_priority(arbitration_id: int) -> int:
+    """TXP<1:0> the firmware writes with a frame it loads into a transmit buffer.
+
+    Assumed (the paper does not say; the datasheets leave it to the firmware): the top bits of
+    the identifier, so that the controller's own choice among its three buffers (highest TXP
+    first, then the highest buffer number, DS21801 §3.2) follows the bus's arbitration order as
+    far as four levels allow: 3 for 0x000–0x0FF (NMT, EMCY), 2 for 0x100–0x1FF (TPDO1: the status
+    and POSITION frames, STOP_ALL), 1 for 0x200–0x2FF (TPDO2: AXIS_AUX, LIMIT; the commands),
+    0 from 0x300 (SDO, heartbeat). Frames of one level go by buffer number (the datasheet rule).
+    """
+    return 3 - min(3, arbitration_id >> 8)
+
+
 class CanController:
     """CAN controller (MCP2515 or the PIC18F4480's ECAN in mode 0) on a python-can bus.
 
@@ -311,7 +329,11 @@ class CanController:
     bus at each delivery; otherwise the firmware polls with :meth:`poll` (at most ``rx_buffers``
     frames survive between two polls, as with a polled MCP2515).
 
-    Transmit: :meth:`send` never raises; a ``can.CanError`` is counted in ``tx_errors``.
+    Transmit: :meth:`send` never raises; a ``can.CanError`` is counted in ``tx_errors``. On a
+    bus with ``set_tx_buffers`` (``schmidt-sim``) the node transmits through :data:`TX_BUFFERS`
+    hardware buffers chosen by TXP (:func:`tx_priority`; ``bus.network.TxBuffers``: the
+    datasheets' transmit priority, the firmware's FIFO in front); other buses keep their own
+    order.
 
     Parameters
     ----------
@@ -319,14 +341,22 @@ class CanController:
         Any python-can bus (``schmidt-sim``, ``virtual``, ``socketcan`` ...).
     rx_buffers : int
         Hardware receive buffers (2).
+    tx_buffers : int
+        Transmit buffers the firmware loads (:data:`TX_BUFFERS`; 1 = one at a time, which keeps
+        the order frames were sent in: a FIFO).
     """
 
-    def __init__(self, bus: can.BusABC, rx_buffers: int = 2) -> None:
+    def __init__(self, bus: can.BusABC, rx_buffers: int = 2, tx_buffers: int = TX_BUFFERS) -> None:
         self.bus = bus
         self.rx_buffers = int(rx_buffers)
         self.accept: Callable[[int], bool] = lambda arbitration_id: True
         self.on_rx: Optional[Callable[[can.Message], None]] = None
         self._hw: Deque[can.Message] = deque()
+        #: transmit buffers the firmware uses (1: one at a time, so frames leave in send order)
+        self.tx_buffers = int(tx_buffers)
+        set_tx_buffers = getattr(bus, "set_tx_buffers", None)
+        if set_tx_buffers is not None and self.tx_buffers > 1:
+            set_tx_buffers(self.tx_buffers, tx_priority)
         self.rx_overflows = 0
         self.rx_frames = 0
         self.tx_frames = 0
@@ -389,8 +419,26 @@ class CanController:
 
     def _rx_interrupt(self, *args) -> None:
         # Hardware fills its buffers, then the ISR empties them one by one.
-        self._fill_buffers()
-        self._service()
+        drain = self._drain
+        if drain is None:
+            self._fill_buffers()
+            self._service()
+            return
+        # schmidt-sim (drain_rx): _fill_buffers + _service inlined, the same steps in the same
+        # order (the receive interrupt of every frame on the bus: the hot path)
+        hw, n, accept = self._hw, self.rx_buffers, self.accept
+        for msg in drain():
+            if not accept(msg.arbitration_id):
+                continue
+            if len(hw) >= n:
+                self.rx_overflows += 1      # RXnOVR: the frame is lost
+                continue
+            hw.append(msg)
+        while hw:
+            msg = hw.popleft()
+            self.rx_frames += 1
+            if self.on_rx is not None:
+                self.on_rx(msg)
 
     def poll(self) -> None:
         """Polled receive, on a bus without a receive interrupt (python-can ``virtual``,

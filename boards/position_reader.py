@@ -108,6 +108,7 @@ class PositionReader(Board):
         super().__init__(scheduler, bus, node_id, name=name,
                          background_period_us=read_period_us, serial_port=serial_port,
                          telemetry_period_us=read_period_us)
+        self._position_cob = proto.position_cob_id(self.node_id)   # fixed: not per read
         lo, hi = DEFAULT_LIMITS_DEG.get(self.axis, (-180.0, 180.0))
         self.low_limit_deg = lo if low_limit_deg is None else float(low_limit_deg)
         self.high_limit_deg = hi if high_limit_deg is None else float(high_limit_deg)
@@ -222,7 +223,7 @@ class PositionReader(Board):
             self._crc_fault_us = now_us
             self.queue(proto.emcy_cob_id(self.node_id), None)
         pflags = self.position_flags()
-        self.queue(proto.position_cob_id(self.node_id),
+        self.queue(self._position_cob,
                    proto.encode_position(pflags, min(self.crc_errors, 0xFFFF), self.pos_counts))
         if self.telemetry_enabled:
             self.telemetry_sample(now_us, (self.pos_counts, pflags))

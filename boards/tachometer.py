@@ -100,6 +100,7 @@ class Tachometer(Board):
         if int(counts_per_rev) <= 0:
             raise ValueError(f"counts_per_rev must be > 0, got {counts_per_rev}")
         super().__init__(scheduler, bus, node_id, name=name, background_period_us=period_us)
+        self._status_cob = proto.tach_status_cob_id(self.node_id)   # fixed: not per tick
         self.counts_per_rev = int(counts_per_rev)
         self.period_us = int(period_us)
         self.qei = Qei(read_motor_counts)
@@ -147,7 +148,7 @@ class Tachometer(Board):
             self.speed_urad_s = int(round(d * self._urad_per_count_tick / w))
             self.window_ticks = w
         self.frames_queued += 1
-        self.queue(proto.tach_status_cob_id(self.node_id),
+        self.queue(self._status_cob,
                    proto.encode_tach_status(self.window_ticks, c, self.speed_urad_s))
 
     # ------------------------------------------------------------------ CANopen objects (SDO)

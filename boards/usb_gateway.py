@@ -106,7 +106,10 @@ class UsbGateway(Firmware):
         # frame: a 2-buffer limit there would be an artefact of the emulation, not the board's
         # (the health check's five SDO answers within 1 ms were lost to it).
         has_irq = hasattr(bus, "set_rx_callback")
-        self.can = CanController(bus, rx_buffers=2 if has_irq else 1 << 30)
+        # Transmit: one of the MCP2515's three buffers at a time (assumed firmware policy): with
+        # three loaded at equal TXP the controller would send the last-loaded first (DS21801
+        # §3.2), and a gateway must not reorder the PC's frames (SDO segments, command sequences)
+        self.can = CanController(bus, rx_buffers=2 if has_irq else 1 << 30, tx_buffers=1)
         self.can.accept = self._accept
         self.can.on_rx = self._on_can_rx
         self.usb = usb if usb is not None else UsbHidInterface()
@@ -200,7 +203,8 @@ class UsbGateway(Firmware):
 
     # ------------------------------------------------------------------ CAN side
     def _accept(self, arbitration_id: int) -> bool:
-        return R.filter_matches(self.filters, arbitration_id)
+        filters = self.filters
+        return not filters or R.filter_matches(filters, arbitration_id)
 
     def _program_filters(self) -> None:
         bus = self.can.bus
@@ -211,7 +215,8 @@ class UsbGateway(Firmware):
 
     def _on_can_rx(self, msg: can.Message) -> None:
         if (msg.is_remote_frame or msg.is_extended_id or msg.is_error_frame or msg.is_fd
-                or len(msg.data) > 8):          # (> 8 bytes: found by the fuzzer, host/fuzz.py)
+                or len(msg.data) > 8            # (> 8 bytes: found by the fuzzer, host/fuzz.py)
+                or not 0 <= msg.arbitration_id <= 0x7FF):    # a "standard" id out of range
             self.rx_unsupported += 1
             return
         q = self._queue
@@ -221,7 +226,9 @@ class UsbGateway(Firmware):
             self.rx_dropped += 1
             self._raise(R.InFlags.RX_OVERFLOW)
             return
-        q.append((msg.arbitration_id, bytes(msg.data), (self.scheduler.now_us - self.boot_us) & _U32))
+        data = bytes(msg.data)
+        # a report slot's fields as encode_report packs them: id, DLC, data, timestamp
+        q.append((msg.arbitration_id, len(data), data, (self.scheduler.now_us - self.boot_us) & _U32))
         self.rx_frames += 1
         if len(q) > self.queue_high_water:
             self.queue_high_water = len(q)
@@ -241,9 +248,17 @@ class UsbGateway(Firmware):
         if not usb.configured or usb.in_armed or not (self._queue or self._pending_flags):
             return
         q = self._queue
-        frames = [q.popleft() for _ in range(min(R.FRAMES_PER_REPORT, len(q)))]
-        self._armed_ts = [f[2] for f in frames]
-        usb.arm_in(R.encode_report(R.KIND_IN, frames, self._pending_flags, self.in_seq))
+        n = min(R.FRAMES_PER_REPORT, len(q))
+        # R.encode_report without its per-frame checks: the frames come off the CAN bus (11-bit
+        # ids, <= 8 bytes, checked in _on_can_rx) already as slot fields (same bytes: tested)
+        vals = [R.KIND_IN, n, self._pending_flags & 0xFF, self.in_seq & 0xFF]
+        ts = []
+        for _ in range(n):
+            f = q.popleft()
+            vals += f
+            ts.append(f[3])
+        self._armed_ts = ts
+        usb.arm_in(R.pack_report(n, vals))
         self._pending_flags = 0
         self.in_seq = (self.in_seq + 1) & 0xFF
 

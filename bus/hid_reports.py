@@ -41,6 +41,11 @@ _S_HEADER = struct.Struct("<BBBB")
 _S_SLOT = struct.Struct("<HB8sI")
 #: CAN frames per report, each way: (64 − 4 header) // 15-byte slot = 4.
 FRAMES_PER_REPORT = (REPORT_SIZE - _S_HEADER.size) // _S_SLOT.size
+#: the slots of a report with n frames, and the whole report (header + n slots, zero padded
+#: to REPORT_SIZE), as one precompiled Struct each, n = 0..FRAMES_PER_REPORT
+_S_SLOTS = tuple(struct.Struct("<" + "HB8sI" * n) for n in range(FRAMES_PER_REPORT + 1))
+_S_REPORT = tuple(struct.Struct("<BBBB" + "HB8sI" * n + f"{REPORT_SIZE - 4 - 15 * n}x")
+                  for n in range(FRAMES_PER_REPORT + 1))
 #: Acceptance filters the gateway holds (assumed: the MCP2515 CAN controller beside the
 #: PIC18F4550 has six acceptance filters; here each has its own mask).
 MAX_FILTERS = 6
@@ -169,19 +174,24 @@ def encode_report(kind: int, frames: Sequence, flags: int = 0, seq: int = 0) -> 
         _fail(name, "kind", "0x01 or 0x81", kind, MalformedReason.KIND)
     if len(frames) > FRAMES_PER_REPORT:
         _fail(name, "count", f"0..{FRAMES_PER_REPORT}", len(frames), MalformedReason.COUNT)
-    out = bytearray(REPORT_SIZE)
-    _S_HEADER.pack_into(out, 0, kind, len(frames), flags & 0xFF, seq & 0xFF)
-    off = _S_HEADER.size
+    vals = [kind, len(frames), flags & 0xFF, seq & 0xFF]
     for f in frames:
         aid, data = int(f[0]), bytes(f[1])
-        ts = int(f[2]) if len(f) > 2 else 0
         if not 0 <= aid <= 0x7FF:
             _fail(name, "id", "0..0x7FF", aid, MalformedReason.ID)
         if len(data) > 8:
             _fail(name, "dlc", "0..8", len(data), MalformedReason.DLC)
-        _S_SLOT.pack_into(out, off, aid, len(data), data.ljust(8, b"\0"), ts & _U32)
-        off += _S_SLOT.size
-    return bytes(out)
+        vals += (aid, len(data), data, (int(f[2]) if len(f) > 2 else 0) & _U32)
+    # one precompiled Struct per frame count (``8s`` pads the data with zeros)
+    return _S_REPORT[len(frames)].pack(*vals)
+
+
+def pack_report(n: int, values) -> bytes:
+    """The 64-byte report of ``n`` frames from its fields in order, unchecked: kind, n, flags,
+    seq, then per frame id, DLC, data (padded with zeros), timestamp_us (:func:`encode_report`
+    checks and normalises its arguments, then packs the same way; the gateway firmware's IN
+    path, whose frames come off the CAN bus, packs directly)."""
+    return _S_REPORT[n].pack(*values)
 
 
 def decode_report(report, expect_kind: int) -> Report:
@@ -199,17 +209,38 @@ def decode_report(report, expect_kind: int) -> Report:
         _fail(name, "kind", f"0x{expect_kind:02X}", kind, MalformedReason.KIND)
     if count > FRAMES_PER_REPORT:
         _fail(name, "count", f"0..{FRAMES_PER_REPORT}", count, MalformedReason.COUNT)
+    vals = _S_SLOTS[count].unpack_from(b, _S_HEADER.size)
     frames = []
-    off = _S_HEADER.size
     for i in range(count):
-        aid, dlc, data, ts = _S_SLOT.unpack_from(b, off)
+        aid, dlc, data, ts = vals[4 * i:4 * i + 4]
         if aid > 0x7FF:
             _fail(name, f"frame[{i}].id", "0..0x7FF", aid, MalformedReason.ID)
         if dlc > 8:
             _fail(name, f"frame[{i}].dlc", "0..8", dlc, MalformedReason.DLC)
         frames.append(Frame(aid, data[:dlc], ts if expect_kind == KIND_IN else 0))
-        off += _S_SLOT.size
     return Report(kind, tuple(frames), flags, seq)
+
+
+def decode_in_frames(report) -> tuple:
+    """:func:`decode_report` of an IN report, as ``(flags, seq, frames)`` with each frame a plain
+    ``(arbitration_id, data, timestamp_us)`` tuple (no :class:`Frame`/:class:`Report` objects: the
+    host's receive path, every report). Same checks; a report :func:`decode_report` refuses
+    raises the same :class:`ReportError`."""
+    b = bytes(report)
+    if len(b) == REPORT_SIZE:
+        kind, count, flags, seq = _S_HEADER.unpack_from(b, 0)
+        if kind == KIND_IN and count <= FRAMES_PER_REPORT:
+            vals = _S_SLOTS[count].unpack_from(b, _S_HEADER.size)
+            frames = []
+            for i in range(0, 4 * count, 4):
+                aid, dlc = vals[i], vals[i + 1]
+                if aid > 0x7FF or dlc > 8:
+                    break
+                frames.append((aid, vals[i + 2][:dlc], vals[i + 3]))
+            else:
+                return flags, seq, frames
+    rep = decode_report(b, KIND_IN)          # raises ReportError naming the field
+    return rep.flags, rep.seq, [tuple(f) for f in rep.frames]
 
 
 def encode_status(s: Status) -> bytes:

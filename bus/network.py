@@ -5,8 +5,11 @@ objects attach to it; ``SimBus.send`` hands the frame to :meth:`CanNetwork.submi
 
 Model
 -----
-* Each attached bus has a TX queue kept in submission order (one FIFO per node, as a
-  controller that loads one TX buffer at a time).
+* Each attached bus has a TX queue kept in submission order (one FIFO per node), unless it asks
+  for hardware transmit buffers (``SimBus.set_tx_buffers``; the boards' CAN controllers do):
+  then :class:`TxBuffers` models the MCP2515 / PIC18 ECAN transmit side — three buffers, the one
+  with the highest TXP offered first, equal TXP: the highest buffer number (DS21801 §3.2), with
+  the firmware's FIFO in front. Either way a node offers one frame per arbitration.
 * Arbitration: when the bus is idle and something is pending, an arbitration event is scheduled
   at the current µs with priority ``PRIO_CAN``; so every frame submitted at that µs by timer
   ISRs (``PRIO_ISR``) competes. The head frame with the lowest identifier wins (equal
@@ -57,7 +60,7 @@ from bus import bitkernel as _bitkernel
 from bus.errors import BusError
 from bus.scheduler import PRIO_CAN, Event, Scheduler
 
-__all__ = ["CanNetwork", "get_network", "frame_bits", "frame_bits_unstuffed", "crc15",
+__all__ = ["CanNetwork", "TxBuffers", "get_network", "frame_bits", "frame_bits_unstuffed", "crc15",
            "WINDOW_US", "NodeErrorState", "ErrorRule", "ERROR_ACTIVE", "ERROR_PASSIVE", "BUS_OFF",
            "ERROR_FRAME_BITS", "RECOVERY_OCCURRENCES"]
 
@@ -301,6 +304,144 @@ _rx_message = (_rx_message_fast if set(getattr(_Message, "__slots__", ())) - {"_
                else _rx_message_init)
 
 
+class TxBuffers:
+    """A node's transmit side with hardware transmit buffers, as the MCP2515 (DS21801 §3) and the
+    PIC18F4480 ECAN module in mode 0 (DS39637 §24.6) have it, in front of the firmware's FIFO.
+
+    Datasheet rule (MCP2515 DS21801 §3.2 "Transmit Priority"; PIC18F2480/2580/4480/4580
+    DS39637 §24.6.3, same words): prior to sending the SOF, the priorities of all buffers queued
+    for transmission are compared and the buffer with the highest priority (TXP<1:0>, 11 highest)
+    is sent first; if two buffers have the same priority setting, the buffer with the highest
+    buffer number is sent first. This is independent of the CAN identifier; the frame the
+    controller offers then competes in the bus's identifier arbitration, and a frame that loses
+    (or meets an error) stays in its buffer and is compared again before the next SOF.
+
+    Firmware side (an assumption, docs/architecture.md): frames the firmware sends wait in a
+    software FIFO (unbounded in the model) when no buffer is free; whenever a buffer is free the
+    oldest waiting frame is loaded into the lowest-numbered free buffer with the TXP that
+    ``tx_priority(arbitration_id)`` gives, at once (the transmit-complete interrupt's latency is
+    not modelled). A buffer frees when its frame completes on the wire.
+
+    The network uses it through the deque operations of its per-node FIFO: ``append`` (the
+    firmware sends), ``[0]`` (the frame the controller offers now), ``popleft`` (that frame
+    starts on the wire: its buffer stays taken until :meth:`sent`), ``appendleft`` (it met an
+    error: back to pending in its buffer), ``len`` (frames waiting, buffered or in the FIFO, not
+    the one on the wire), ``clear`` (bus-off).
+
+    Parameters
+    ----------
+    n : int
+        Transmit buffers (3: TXB0..TXB2).
+    tx_priority : callable(int) -> int
+        TXP (0..3) the firmware gives a frame with this identifier.
+    """
+
+    __slots__ = ("n", "tx_priority", "buf", "fifo", "_cand", "_sending", "_count", "head", "_txp")
+
+    def __init__(self, n: int, tx_priority) -> None:
+        if int(n) < 1:
+            raise BusError(f"a controller needs at least one transmit buffer, got {n}")
+        self.n = int(n)
+        self.tx_priority = tx_priority
+        #: per buffer number: (pending, rank) or None; rank = TXP * n + buffer number, so the
+        #: highest rank is the buffer the datasheet rule picks
+        self.buf: list = [None] * self.n
+        self.fifo: deque = deque()           # the firmware's software queue
+        self._cand = None                    # buffer number of the frame offered next
+        self._sending = None                 # buffer number whose frame is on the wire
+        self._count = 0                      # frames waiting: buffered (not on the wire) + FIFO
+        #: the frame offered next (``self[0]``), None when nothing waits in a buffer
+        self.head = None
+        self._txp: dict = {}                 # identifier -> TXP, asked once per identifier
+
+    def _rank(self, arbitration_id: int, i: int) -> int:
+        txp = self._txp.get(arbitration_id)
+        if txp is None:
+            txp = self.tx_priority(arbitration_id)
+            if txp.__class__ is not int or not 0 <= txp <= 3:
+                raise BusError(f"TXP must be an int 0..3, got {txp!r} for 0x{arbitration_id:03X}")
+            self._txp[arbitration_id] = txp
+        return txp * self.n + i
+
+    def _load(self) -> None:
+        buf, fifo, n = self.buf, self.fifo, self.n
+        for i in range(n):
+            if not fifo:
+                return
+            if buf[i] is None:
+                p = fifo.popleft()
+                buf[i] = (p, self._rank(p.arbitration_id, i))
+
+    def _select(self) -> None:
+        best, best_rank, sending = None, -1, self._sending
+        for i, e in enumerate(self.buf):
+            if e is not None and e[1] > best_rank and i != sending:
+                best, best_rank = i, e[1]
+        self._cand = best
+        self.head = None if best is None else self.buf[best][0]
+
+    def append(self, pending) -> None:
+        self._count += 1
+        buf = self.buf
+        if not self.fifo:                    # fast path: into the lowest-numbered free buffer
+            for i in range(self.n):
+                if buf[i] is None:
+                    txp = self._txp.get(pending.arbitration_id)
+                    rank = (txp * self.n + i) if txp is not None else self._rank(pending.arbitration_id, i)
+                    buf[i] = (pending, rank)
+                    c = self._cand
+                    if c is None or rank > buf[c][1]:
+                        self._cand = i
+                        self.head = pending
+                    return
+        self.fifo.append(pending)            # every buffer taken: the firmware's FIFO
+
+    def __getitem__(self, k):
+        c = self._cand
+        if k != 0 or c is None:
+            raise IndexError("TxBuffers: only [0], the frame offered next, when one is pending")
+        return self.buf[c][0]
+
+    def popleft(self):
+        c = self._cand
+        if c is None:
+            raise IndexError("TxBuffers: nothing pending")
+        self._sending = c
+        self._count -= 1
+        self._select()
+        return self.buf[c][0]
+
+    def appendleft(self, pending) -> None:
+        c = self._sending
+        if c is None or self.buf[c][0] is not pending:
+            raise BusError("TxBuffers: only the frame on the wire can go back to pending")
+        self._sending = None
+        self._count += 1
+        self._select()
+
+    def sent(self, pending) -> None:
+        """``pending`` completed on the wire: its buffer frees and the firmware refills it."""
+        c = self._sending
+        if c is not None and self.buf[c][0] is pending:
+            self.buf[c] = None
+            self._sending = None
+            if self.fifo:
+                self._load()
+                self._select()
+
+    def clear(self) -> None:
+        self.buf = [None] * self.n
+        self.fifo.clear()
+        self._cand = self._sending = self.head = None
+        self._count = 0
+
+    def __len__(self) -> int:
+        return self._count
+
+    def __bool__(self) -> bool:
+        return self._cand is not None
+
+
 class _Pending:
     __slots__ = ("bus", "arbitration_id", "data", "submit_us", "seq", "key")
 
@@ -517,6 +658,23 @@ class CanNetwork:
             self._errors.pop(id(bus), None)
             self._rx_table.clear()
 
+    def set_tx_buffers(self, bus, n: int, tx_priority) -> None:
+        """Give an attached node ``n`` hardware transmit buffers chosen by TXP
+        (:class:`TxBuffers`: the MCP2515 / PIC18 ECAN transmit priority) instead of one FIFO.
+
+        Raises
+        ------
+        BusError
+            If ``bus`` is not attached, or has frames queued or on the wire.
+        """
+        key = id(bus)
+        q = self._queues.get(key)
+        if q is None:
+            raise BusError(f"{bus!r} is not attached to CanNetwork {self.channel!r}")
+        if q or (self._current is not None and self._current.bus is bus):
+            raise BusError(f"set_tx_buffers: {bus!r} has frames queued")
+        self._queues[key] = TxBuffers(n, tx_priority)
+
     def filters_changed(self) -> None:
         """An attached bus changed its acceptance filters (SimBus calls this from
         ``set_filters``): the identifier -> receivers table is rebuilt on demand."""
@@ -611,7 +769,8 @@ class CanNetwork:
         pending = _Pending(bus, aid, data, self.scheduler.now_us, self._seq)
         queue.append(pending)
         self._active[id(bus)] = queue
-        if len(queue) == 1 and not self._faulty:
+        if not self._faulty and (queue.head if queue.__class__ is TxBuffers
+                                 else queue[0]) is pending:   # (a FIFO: it is the only one)
             heapq.heappush(self._heads, (pending.key, pending))
         if not self._busy and not self._arb_scheduled:
             self._arb_scheduled = True
@@ -654,7 +813,13 @@ class CanNetwork:
             while heads:
                 _, head = heapq.heappop(heads)
                 queue = queues.get(id(head.bus))
-                if queue and queue[0] is head:       # else its bus was detached meanwhile
+                if queue is None:                    # its bus was detached meanwhile
+                    continue
+                if queue.__class__ is TxBuffers:
+                    if queue.head is head:           # else no longer what the node offers
+                        best = head
+                        break
+                elif queue and queue[0] is head:
                     best = head
                     break
         if best is None:
@@ -663,7 +828,13 @@ class CanNetwork:
         bus_key = id(best.bus)
         queue = self._queues[bus_key]
         queue.popleft()
-        if not queue:
+        if queue.__class__ is TxBuffers:
+            nxt = queue.head
+            if queue._count == 0:
+                del self._active[bus_key]
+            elif nxt is not None and not self._faulty:
+                heapq.heappush(self._heads, (nxt.key, nxt))
+        elif not queue:
             del self._active[bus_key]
         elif not self._faulty:
             nxt = queue[0]
@@ -719,6 +890,15 @@ class CanNetwork:
         pending = self._current
         self._current = None
         sender = pending.bus
+        queue = self._queues.get(id(sender))
+        if queue is not None and queue.__class__ is TxBuffers:
+            old = queue.head
+            queue.sent(pending)                   # its buffer frees; the firmware refills it
+            nxt = queue.head
+            if nxt is not None:
+                self._active[id(sender)] = queue
+                if nxt is not old and not self._faulty:
+                    heapq.heappush(self._heads, (nxt.key, nxt))
         lost = None
         if self._faulty:
             lost = self._after_success(now_us, pending)

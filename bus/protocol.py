@@ -643,6 +643,11 @@ def _flags(frame: str, field: str, value: int, mask: int) -> int:
     return value
 
 
+#: ``tuple.__new__(Cls, values)``: a NamedTuple built without its Python-level ``__new__`` (what
+#: ``Cls._make`` does; the per-frame decoders use it)
+_tuple_new = tuple.__new__
+
+
 def _clamp(v: int, lo: int, hi: int) -> int:
     return lo if v < lo else (hi if v > hi else v)
 
@@ -785,7 +790,7 @@ def decode_axis_status(data) -> AxisStatus:
         raise _bad_type("AXIS_STATUS", _DT_AXIS, dt)
     if mode > 8:
         raise MalformedFrame("AXIS_STATUS", "mode", "AxisMode in 0..8", mode)
-    return AxisStatus(_MODE[mode], flags, u, lo | (hi << 16))
+    return _tuple_new(AxisStatus, (_MODE[mode], flags, u, lo | (hi << 16)))
 
 
 # -- POSITION -------------------------------------------------------------------------------------
@@ -812,7 +817,7 @@ def decode_position(data) -> Position:
         raise _bad_type("POSITION", _DT_READER, dt)
     if pos > _POS_MASK:
         raise MalformedFrame("POSITION", "pos_counts", "29-bit value < 2**29", pos)
-    return Position(flags, crc, pos)
+    return _tuple_new(Position, (flags, crc, pos))
 
 
 # -- FOCUS_STATUS ---------------------------------------------------------------------------------
@@ -867,7 +872,7 @@ def decode_axis_aux(data) -> AxisAux:
         raise MalformedFrame("AXIS_AUX", "adc_a", "10-bit value 0..1023", a)
     if b > ADC_MAX:
         raise MalformedFrame("AXIS_AUX", "adc_b", "10-bit value 0..1023", b)
-    return AxisAux(seq, a, b, d)
+    return _tuple_new(AxisAux, (seq, a, b, d))
 
 
 # -- AXIS_COMMAND ---------------------------------------------------------------------------------
@@ -1309,17 +1314,22 @@ def encode_tach_status(window_ticks: int, counts: int, speed_urad_s: int) -> byt
         if not 1 <= window_ticks <= TACH_MAX_WINDOW_TICKS:
             raise EncodeError(f, "window_ticks", f"1..{TACH_MAX_WINDOW_TICKS}", window_ticks)
         return _S_TACH_STATUS.pack(_DT_TACH, window_ticks, counts & 0xFFFF,
-                                   _clamp(speed_urad_s, I32_MIN, I32_MAX))
+                                   I32_MIN if speed_urad_s < I32_MIN
+                                   else (I32_MAX if speed_urad_s > I32_MAX else speed_urad_s))
     except (struct.error, TypeError) as exc:
         raise _not_int(f, exc) from None
 
 
 def decode_tach_status(data) -> TachStatus:
     """Decode ``TACH_STATUS``; raises MalformedFrame."""
-    dt, window, counts, speed = _unpack(_S_TACH_STATUS, data, "TACH_STATUS", _DT_TACH)
+    if len(data) != 8:                       # _unpack() inlined (every 5 ms per tachometer)
+        raise MalformedFrame("TACH_STATUS", "dlc", "8 bytes", len(data))
+    dt, window, counts, speed = _S_TACH_STATUS.unpack(data)
+    if dt != _DT_TACH:
+        raise _bad_type("TACH_STATUS", _DT_TACH, dt)
     if not 1 <= window <= TACH_MAX_WINDOW_TICKS:
         raise MalformedFrame("TACH_STATUS", "window_ticks", f"1..{TACH_MAX_WINDOW_TICKS}", window)
-    return TachStatus(window, counts, speed)
+    return _tuple_new(TachStatus, (window, counts, speed))
 
 
 _S_AUX_POSITION = struct.Struct("<BB2xi")
@@ -1330,8 +1340,10 @@ def encode_aux_position(flags: int, aux_counts: int) -> bytes:
     (saturates)."""
     f = "AUX_POSITION"
     try:
-        _flags(f, "flags", flags, 0x01)
-        return _S_AUX_POSITION.pack(_DT_AUX, flags, _clamp(aux_counts, I32_MIN, I32_MAX))
+        if flags & ~0x01 or flags < 0:       # _flags() and _clamp() inlined (every 10 ms)
+            raise EncodeError(f, "flags", "flag bits within 0x01", flags)
+        return _S_AUX_POSITION.pack(_DT_AUX, flags, I32_MIN if aux_counts < I32_MIN
+                                    else (I32_MAX if aux_counts > I32_MAX else aux_counts))
     except (struct.error, TypeError) as exc:
         raise _not_int(f, exc) from None
 
@@ -1339,7 +1351,7 @@ def encode_aux_position(flags: int, aux_counts: int) -> bytes:
 def decode_aux_position(data) -> AuxPosition:
     """Decode ``AUX_POSITION``; raises MalformedFrame."""
     dt, flags, counts = _unpack(_S_AUX_POSITION, data, "AUX_POSITION", _DT_AUX)
-    return AuxPosition(flags, counts)
+    return _tuple_new(AuxPosition, (flags, counts))
 
 
 _add(FrameSpec("TACH_STATUS", FC_STATUS, TACH_NODES, "node", TACH_STATUS_PERIOD_US, (

@@ -102,6 +102,13 @@ class SimBus(can.BusABC):
             raise BusError(f"{self.name}: send on a shut-down bus")
         self.network.submit_frame(self, arbitration_id, bytes(data))
 
+    def set_tx_buffers(self, n: int, tx_priority) -> None:
+        """Transmit through ``n`` hardware buffers chosen by priority (``tx_priority(id)`` ->
+        TXP 0..3; ties: the highest buffer number) with a FIFO in front, as an MCP2515 or PIC18
+        ECAN controller (``bus.network.TxBuffers``), instead of one FIFO. Only while nothing
+        is queued; raises ``BusError`` otherwise."""
+        self.network.set_tx_buffers(self, n, tx_priority)
+
     # -- receive ----------------------------------------------------------------------------
     def _apply_filters(self, filters) -> None:
         """python-can hook: precompute a set when every filter is an exact 11-bit match."""

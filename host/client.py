@@ -32,6 +32,12 @@ from bus.scheduler import PRIO_HOST, Scheduler
 from boards.registry import NODE_NAMES, REGISTRY, network_nodes, nodes_of_kind
 from bus.units import ARCSEC_PER_REV, TICK_US, duty_to_q15, q15_to_duty
 
+#: identifier -> decoder of the frame table (``bus.protocol.decode`` without its call, per frame)
+_DECODERS = {cob: entry[1].decode for cob, entry in P.COB_TABLE.items()}
+#: flag masks as plain ints (an IntFlag operation is a Python-level call, per frame)
+_POSITION_BAD = int(P.PositionFlags.CRC_ERROR | P.PositionFlags.INVALID)
+_AUX_TURNS_UNKNOWN = int(P.AuxFlags.TURNS_UNKNOWN)
+
 __all__ = ["HostClient", "Health", "AxisState", "NODE_NAMES", "AXIS_NODES"]
 
 AXIS_NODES = nodes_of_kind("axis_controller")       #: {"ra": 1, "dec": 2}
@@ -318,6 +324,18 @@ class HostClient:
     # -- receive -------------------------------------------------------------------------------
     def poll(self) -> None:
         """Drain the bus and decode every frame (called from the rx interrupt or a 1 ms poll)."""
+        drain = getattr(self.bus, "drain_frames", None)
+        if drain is not None and type(self)._handle is HostClient._handle:
+            # the gateway's bus hands out (id, data, timestamp) tuples: no can.Message per frame
+            # (a subclass that observes the Message, BusMonitor, keeps the recv path)
+            handle = self._handle_frame
+            while True:
+                frames = drain()
+                if not frames:
+                    return
+                for f in frames:
+                    self.frames_received += 1
+                    handle(f[0], f[1])
         while True:
             msg = self.bus.recv(0.0)
             if msg is None:
@@ -326,24 +344,27 @@ class HostClient:
             self._handle(msg)
 
     def _handle(self, msg: can.Message) -> None:
+        self._handle_frame(msg.arbitration_id, bytes(msg.data))
+
+    def _handle_frame(self, cob: int, data: bytes) -> None:
         now = self.scheduler.now_us
-        cob = msg.arbitration_id
         if P.FC_SDO_TX < cob < P.FC_SDO_RX:          # an SDO response (not in the frame table)
             self.sdo_answers[cob - P.FC_SDO_TX] = now
             if self.canopen_notify is not None:
-                self.canopen_notify(cob, bytes(msg.data), now)
+                self.canopen_notify(cob, data, now)
             return
         if self.canopen_notify is not None and (cob >> 7) in (0x1, 0xE):   # EMCY, heartbeat
-            self.canopen_notify(cob, bytes(msg.data), now)
+            self.canopen_notify(cob, data, now)
         try:
-            frame = P.decode(msg.arbitration_id, bytes(msg.data))
+            decoder = _DECODERS.get(cob)              # P.decode, inlined (every frame)
+            frame = decoder(data) if decoder is not None else P.decode(cob, data)
         except MalformedFrame as exc:
             self.malformed_frames += 1
-            self._error(now, f"0x{msg.arbitration_id:03X}", "malformed-frame", str(exc))
+            self._error(now, f"0x{cob:03X}", "malformed-frame", str(exc))
             return
         handler = self._handlers.get(type(frame))
         if handler is not None:  # frames the host does not consume (commands) have none
-            handler(msg.arbitration_id, frame, now)
+            handler(cob, frame, now)
 
     def _on_AxisStatus(self, cob_id: int, f, now: int) -> None:
         node = P.node_of(cob_id)
@@ -438,7 +459,7 @@ class HostClient:
         if res is None:
             return
         st.angle_arcsec = f.aux_counts * res
-        if f.flags & P.AuxFlags.TURNS_UNKNOWN:
+        if f.flags & _AUX_TURNS_UNKNOWN:
             return
         main = self.main_arcsec(axis, now)
         if main is None:
@@ -465,7 +486,7 @@ class HostClient:
         (flags CRC_ERROR or INVALID clear) in the 100 ms before ``t_us``. Not extrapolated: the
         boards sample on their own 10 ms ticks and the frames carry no sampling time."""
         ps = self.positions[axis]
-        bad = int(P.PositionFlags.CRC_ERROR | P.PositionFlags.INVALID)
+        bad = _POSITION_BAD
         if ps.t_us < 0 or ps.flags & bad or t_us - ps.t_us > 100_000:
             return None
         a = _signed_arcsec(ps.pos_counts)

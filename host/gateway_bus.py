@@ -43,7 +43,9 @@ class HidGatewayBus(can.BusABC):
         self.device = device
         self.channel = channel
         self.channel_info = f"USB-HID CAN gateway ({channel})"
-        self._rx: Deque[can.Message] = deque()
+        self._rx: Deque[tuple] = deque()      # decoded frames not yet returned
+        #: the in-process device's ``sim_read_report`` (bytes, no list of ints), else None
+        self._read_bytes = getattr(device, "sim_read_report", None)
         self._last_seq: Optional[int] = None
         self.malformed_reports = 0
         self.lost_reports = 0
@@ -87,27 +89,40 @@ class HidGatewayBus(can.BusABC):
     # -- receive -------------------------------------------------------------------------------
     def _take(self, report) -> None:
         try:
-            rep = R.decode_report(bytes(report), R.KIND_IN)
+            flags, seq, frames = R.decode_in_frames(report)
         except R.ReportError:
             self.malformed_reports += 1
             return
         if self._last_seq is not None:
-            self.lost_reports += (rep.seq - self._last_seq - 1) % 256
-        self._last_seq = rep.seq
-        self.flags_seen |= rep.flags
-        for f in rep.frames:
-            self._rx.append(can.Message(timestamp=f.timestamp_us / 1e6, arbitration_id=f.arbitration_id,
-                                        is_extended_id=False, data=f.data, is_rx=True, channel=self.channel))
+            self.lost_reports += (seq - self._last_seq - 1) % 256
+        self._last_seq = seq
+        self.flags_seen |= flags
+        self._rx.extend(frames)              # (arbitration_id, data, timestamp_us) tuples
+
+    def _read_reports(self, timeout: Optional[float]) -> None:
+        """Take every IN report the device has (waiting up to ``timeout`` for the first)."""
+        ms = -1 if timeout is None else (0 if timeout <= 0 else max(1, int(round(timeout * 1000))))
+        read = self._read_bytes
+        if read is not None:                 # the in-process device: the report as bytes
+            r = read(ms)
+            while r:
+                self._take(r)
+                r = read(0)
+            return
+        r = self.device.read(R.REPORT_SIZE, ms)
+        while r:
+            self._take(bytes(r))
+            r = self.device.read(R.REPORT_SIZE, 0)
+
+    def _message(self, f) -> can.Message:
+        return can.Message(timestamp=f[2] / 1e6, arbitration_id=f[0], is_extended_id=False,
+                           data=f[1], is_rx=True, channel=self.channel)
 
     def _recv_internal(self, timeout: Optional[float]):
         if not self._rx:
-            ms = -1 if timeout is None else (0 if timeout <= 0 else max(1, int(round(timeout * 1000))))
-            r = self.device.read(R.REPORT_SIZE, ms)
-            while r:
-                self._take(r)
-                r = self.device.read(R.REPORT_SIZE, 0)
+            self._read_reports(timeout)
         if self._rx:
-            return self._rx.popleft(), False
+            return self._message(self._rx.popleft()), False
         return None, False
 
     def recv(self, timeout: Optional[float] = None) -> Optional[can.Message]:
@@ -118,6 +133,23 @@ class HidGatewayBus(can.BusABC):
         while msg is not None and not self._matches_filters(msg):
             msg, _ = self._recv_internal(0)
         return msg
+
+    def drain_frames(self) -> list:
+        """Every frame available now, oldest first, as ``(arbitration_id, data, timestamp_us)``
+        tuples, without building ``can.Message`` objects: the same
+        frames, in the same order, as ``recv(0)`` returns one by one until ``None`` (bus
+        filters applied; never waits). The host client's receive path uses it.
+        """
+        if not self._rx:
+            self._read_reports(0)
+        rx = self._rx
+        if not rx:
+            return []
+        out = list(rx)
+        rx.clear()
+        if self._filters is not None:
+            out = [f for f in out if self._matches_filters(self._message(f))]
+        return out
 
     def shutdown(self) -> None:
         """Close the HID device."""

@@ -213,6 +213,17 @@ class device:  # noqa: N801 - the name hidapi uses
         t, report = d.port.received.popleft()
         return t, list(report[:max_length])
 
+    def sim_read_report(self, timeout_ms: int = 0) -> Optional[bytes]:
+        """:meth:`read` of a whole report as ``bytes`` (None on timeout) instead of a list of
+        ints. Not in hidapi: :class:`host.gateway_bus.HidGatewayBus` uses it on this in-process
+        device to skip the list round trip."""
+        d = self._dev()
+        self._wait(d, timeout_ms)
+        received = d.port.received
+        if not received:
+            return None
+        return bytes(received.popleft()[1])
+
     def get_feature_report(self, report_id: int, max_length: int) -> List[int]:
         """GET_REPORT(Feature): ``[report_id] + 64 status bytes`` (truncated to ``max_length``).
 

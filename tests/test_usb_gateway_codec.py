@@ -76,3 +76,46 @@ def test_bad_commands_refused():
         R.decode_command(bytes([R.CMD_SET_FILTERS, 7]) + bytes(62))
     with pytest.raises(R.ReportError):
         R.decode_command(bytes([R.CMD_SET_FILTERS, 1, 0x00, 0x08, 0xFF, 0x07]) + bytes(58))
+
+
+def test_decode_in_frames_agrees_with_decode_report():
+    """The host's fast IN decoder (plain tuples) gives decode_report's flags, seq and frames, and
+    refuses exactly the reports decode_report refuses, with the same error text: random reports,
+    most with one or two bytes corrupted or a wrong length."""
+    import random
+
+    rng = random.Random(12)
+    refused = 0
+    for _ in range(5000):
+        frames = [(rng.randint(0, 0x7FF), bytes(rng.randrange(256) for _ in range(rng.randint(0, 8))),
+                   rng.randint(0, 2**32 - 1)) for _ in range(rng.randint(0, R.FRAMES_PER_REPORT))]
+        rep = bytearray(R.encode_report(R.KIND_IN, frames, rng.randint(0, 255), rng.randint(0, 255)))
+        for _ in range(rng.randint(0, 2)):
+            rep[rng.randrange(R.REPORT_SIZE)] = rng.randrange(256)
+        if rng.random() < 0.05:
+            rep = rep[:rng.randrange(R.REPORT_SIZE + 6)]
+        try:
+            ref = R.decode_report(bytes(rep), R.KIND_IN)
+        except R.ReportError as exc:
+            refused += 1
+            with pytest.raises(R.ReportError) as got:
+                R.decode_in_frames(bytes(rep))
+            assert str(got.value) == str(exc)
+            continue
+        assert R.decode_in_frames(bytes(rep)) == (ref.flags, ref.seq, [tuple(f) for f in ref.frames])
+    assert 200 < refused < 4800
+
+
+def test_pack_report_is_encode_report_of_slot_fields():
+    """The gateway's unchecked IN packer gives encode_report's bytes for the same frames."""
+    import random
+
+    rng = random.Random(5)
+    for _ in range(2000):
+        frames = [(rng.randint(0, 0x7FF), bytes(rng.randrange(256) for _ in range(rng.randint(0, 8))),
+                   rng.randint(0, 2**32 - 1)) for _ in range(rng.randint(0, R.FRAMES_PER_REPORT))]
+        flags, seq = rng.randint(0, 255), rng.randint(0, 255)
+        vals = [R.KIND_IN, len(frames), flags, seq]
+        for aid, data, ts in frames:
+            vals += (aid, len(data), data, ts)
+        assert R.pack_report(len(frames), vals) == R.encode_report(R.KIND_IN, frames, flags, seq)

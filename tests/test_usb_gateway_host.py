@@ -148,3 +148,65 @@ def test_gateway_reset_and_removal_as_scenario_faults(tel):
         name: "LOST" for name in ("ra-axis", "dec-axis", "ra-reader", "dec-reader", "focus")}
     with pytest.raises(ValueError, match="malformed_frame needs board"):
         check_fault("malformed_frame", "gateway", {})
+
+
+class _ListOnlyDevice:
+    """A hidapi-shaped device with only ``read`` (a list of ints) and ``write``: what a real
+    ``hid.device`` offers (no ``sim_read_report``)."""
+
+    def __init__(self, dev):
+        self._dev = dev
+
+    def read(self, max_length, timeout_ms=0):
+        return self._dev.read(max_length, timeout_ms)
+
+    def write(self, buff):
+        return self._dev.write(buff)
+
+    def error(self):
+        return self._dev.error()
+
+
+def _frames_read_by(reader: str):
+    """Power on, stop the client's reading, let 30 ms of IN reports pile up at the USB host, then
+    read them with ``reader``; returns (what was read, the frames on the wire in that span)."""
+    sc = parse_scenario(DEFAULT_SCENARIO.read_text(), str(DEFAULT_SCENARIO))
+    t = build_network(sc)
+    try:
+        assert t.client.power_on().ok
+        bus = t.client.bus
+        bus.set_rx_callback(None)                 # nobody reads: reports wait in the USB host
+        t.scheduler.run_until(t.scheduler.now_us + 3_000)   # frames already queued at the gateway
+        bus.drain_frames()
+        wire = []
+        t.network.add_tap(lambda m: wire.append((m.arbitration_id, bytes(m.data))))
+        t.scheduler.run_until(t.scheduler.now_us + 30_000)
+        if reader == "drain_frames":
+            got = [(f[0], bytes(f[1]), f[2]) for f in bus.drain_frames()]
+        else:
+            rbus = bus if reader == "recv" else HidGatewayBus(_ListOnlyDevice(bus.device))
+            got = []
+            msg = rbus.recv(0)
+            while msg is not None:
+                got.append((msg.arbitration_id, bytes(msg.data), round(msg.timestamp * 1e6)))
+                msg = rbus.recv(0)
+            if rbus is not bus:
+                rbus.shutdown()
+        return got, wire
+    finally:
+        t.close()
+
+
+def test_drain_frames_gives_what_recv_gives():
+    """The client's receive path (``drain_frames``: tuples, no ``can.Message``) hands out the same
+    frames, in the same order and with the same gateway timestamps, as python-can ``recv(0)``
+    one by one, on the in-process device (``sim_read_report``) and on one offering only
+    hidapi's ``read``; and those are the frames the wire carried, minus the host's own."""
+    drained, wire = _frames_read_by("drain_frames")
+    received, wire2 = _frames_read_by("recv")
+    listed, _ = _frames_read_by("list-device")
+    assert wire == wire2 and len(drained) > 10
+    assert drained == received == listed
+    # the reports of the last USB frame may still be in flight: a prefix of the wire's frames
+    others = [f for f in wire if f[0] not in _HOST_IDS]
+    assert [f[:2] for f in drained] == others[:len(drained)] and len(others) - len(drained) <= 4
