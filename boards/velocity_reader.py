@@ -89,6 +89,7 @@ class AxisVelocityReader(Board):
         self.qei = Qei(read_qei_counts)
         self.qei.reset()            # power-on: POSCNT cleared (the count is relative to power-on)
         self._marcsec_s_per_count_tick = self.arcsec_per_count * 1e3 / (self.period_us * 1e-6)
+        self._status_cob = proto.axis_velocity_cob_id(self.node_id)   # fixed: not per tick
         self.timer = self.add_timer(Timer(scheduler, self.period_us, self.isr_tick, priority=PRIO_ISR,
                                           owner=f"{self.name}/isr"))
         self._init_vel_state()
@@ -131,7 +132,7 @@ class AxisVelocityReader(Board):
             self.rate_marcsec_s = int(round(d * self._marcsec_s_per_count_tick / w))
             self.window_ticks = w
         self.frames_queued += 1
-        self.queue(proto.axis_velocity_cob_id(self.node_id),
+        self.queue(self._status_cob,
                    proto.encode_axis_velocity(self.window_ticks, c, self.rate_marcsec_s))
 
     # ------------------------------------------------------------------ CANopen objects (SDO)
