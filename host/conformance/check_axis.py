@@ -160,6 +160,7 @@ def test_axis_velocity_and_open_loop(axis_node, conf, check):
     AXIS_STATUS control effort = the duty (its DBC scaling)."""
     conf.ensure_operational(axis_node)
     ax = Axis(conf, axis_node)
+    conf.ensure_operational(ax.reader)       # the rate is measured from its POSITION frames
     tol = conf.docs.tolerances
     try:
         sig = ax.value_signal("VELOCITY")
