@@ -58,7 +58,7 @@ class DeviceClock:
     periodic frame is never sent before its period has elapsed, every stamp is a lower bound of
     the device time at which the frame was sent; it lags that time by at most one period of the
     fastest stream heard (10 ms while any axis or reader is OPERATIONAL; one heartbeat, 1 s, when
-    only heartbeats are heard). A heartbeat with state 0x00 (boot-up) is not periodic: it ends
+    only heartbeats are heard): :meth:`resolution_s`, which the link adds to every window. A heartbeat with state 0x00 (boot-up) is not periodic: it ends
     the node's heartbeat stream.
 
     Parameters
@@ -82,6 +82,21 @@ class DeviceClock:
         self.now = 0.0
         self.frames_counted = 0
         self._last: Dict[int, float] = {}
+        self._period: Dict[int, float] = {}
+
+    def resolution_s(self) -> float:
+        """How far ``now`` may lag the devices' time, s: the shortest period among the streams
+        heard within their last two periods (0 when none is: nothing advances the clock).
+
+        A window measured from ``now`` is lengthened by this much, because ``now`` may lag the
+        device's time at its start by one such period: a stamp is a lower bound of a *time*,
+        not of an *interval*."""
+        best = 0.0
+        for cob, last in self._last.items():
+            p = self._period[cob]
+            if self.now - last <= 2 * p and (best == 0.0 or p < best):
+                best = p
+        return best
 
     def on_frame(self, cob_id: int, data: bytes) -> float:
         """Account for a received frame; return the clock's value after it."""
@@ -97,6 +112,7 @@ class DeviceClock:
         last = self._last.get(cob_id)
         stamp = self.now if last is None else max(last + period, self.now)
         self._last[cob_id] = stamp
+        self._period[cob_id] = period
         self.now = stamp
         self.frames_counted += 1
         return stamp
@@ -248,12 +264,17 @@ class Link:
             return False
         return True
 
-    def _wall_end(self, dt_s: float) -> float:
-        return self.wall() + dt_s / self.min_rate + (1.0 if self.clock is not None else 0.0)
+    def _ends(self, dt_s: float):
+        """(end on the link's clock, end on the wall clock) of a window of ``dt_s``: on the
+        devices' clock lengthened by its resolution and capped at ``dt / min_rate`` wall s."""
+        if self.clock is None:
+            return self.now() + dt_s, float("inf")
+        dt_s += self.clock.resolution_s()
+        return self.now() + dt_s, self.wall() + dt_s / self.min_rate + 1.0
 
     def wait(self, dt_s: float) -> List[Frame]:
         """Let ``dt_s`` of the link's time pass; return every frame received meanwhile."""
-        end, wall_end = self.now() + dt_s, self._wall_end(dt_s)
+        end, wall_end = self._ends(dt_s)
         out: List[Frame] = []
         while self._going(end, wall_end):
             out.extend(self._poll(end))
@@ -262,7 +283,7 @@ class Link:
     def pump_until(self, pred: Callable[[Frame], bool], timeout_s: float) -> Optional[Frame]:
         """Wait until a received frame satisfies ``pred`` (returned) or ``timeout_s`` of the
         link's time has passed (None)."""
-        end, wall_end = self.now() + timeout_s, self._wall_end(timeout_s)
+        end, wall_end = self._ends(timeout_s)
         while self._going(end, wall_end):
             for f in self._poll(end):
                 if pred(f):

@@ -266,14 +266,13 @@ class Conformance:
         """The documented producer heartbeat time (EDS 0x1017), s."""
         return int(node.od[0x1017].default) / 1000.0
 
-    def clock_resolution_s(self, node: NodeInfo) -> float:
-        """How far the link's time may lag the node's own, s: 0 in simulated or wall-clock time;
-        on the devices' clock one period of the node's fastest cyclic TPDO (its heartbeat
-        period if it has none) — the clock counts frames, so it is no finer than they come."""
+    def clock_resolution_s(self) -> float:
+        """How far the link's time may lag the nodes' own, s: 0 in simulated or wall-clock time;
+        on the devices' clock the period of the fastest stream heard (it counts frames, so it is
+        no finer than they come; :meth:`~host.conformance.link.DeviceClock.resolution_s`)."""
         if self.link is None or self.link.clock is None:
             return 0.0
-        periods = list(self.periodic_tpdos(node).values())
-        return min(periods) / 1000.0 if periods else self.heartbeat_period_s(node)
+        return self.link.clock.resolution_s()
 
     def ensure_operational(self, node: NodeInfo) -> None:
         self.nmt(node.node_id, "start")
