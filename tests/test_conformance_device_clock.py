@@ -83,9 +83,12 @@ def test_stopped_node_answering_sdo_fails_on_the_device_clock(tmp_path, monkeypa
     assert code == 1 and _failed(doc) == {"nmt.stop.no_sdo"}
 
 
-def test_late_nmt_state_change_fails_on_the_device_clock(tmp_path, monkeypatch):
-    """NMT reaction (50 ms + one 1 s heartbeat): a node that changes state 1.5 s (its time) after
-    the command fails nmt.stop.state (and, the stop landing late, the checks after it)."""
+@pytest.mark.parametrize("selection, check_id", [("nmt_stop", "nmt.stop.state"),
+                                                  ("reset_node", "nmt.reset_node.boot_up")])
+def test_late_nmt_state_change_fails_on_the_device_clock(tmp_path, monkeypatch, selection, check_id):
+    """NMT reaction (50 ms; + one 1 s heartbeat where the state is read from it): a node that acts
+    on NMT commands 1.5 s (its time) after receiving them fails nmt.stop.state, and after a reset
+    node command keeps beating instead of sending its boot-up (nmt.reset_node.boot_up)."""
     from boards.services.device import CanopenDevice
 
     prompt = CanopenDevice._nmt_command
@@ -94,8 +97,8 @@ def test_late_nmt_state_change_fails_on_the_device_clock(tmp_path, monkeypatch):
         self.scheduler.call_at(self.scheduler.now_us + 1_500_000, lambda t: prompt(self, data), owner="late NMT")
 
     monkeypatch.setattr(CanopenDevice, "_nmt_command", late)
-    code, doc = _conform(tmp_path, "--nodes", "3", "-k", "nmt_stop")
-    assert code == 1 and "nmt.stop.state" in _failed(doc), _failed(doc)
+    code, doc = _conform(tmp_path, "--nodes", "3", "-k", selection)
+    assert code == 1 and check_id in _failed(doc), _failed(doc)
 
 
 def test_late_command_reaction_fails_on_the_device_clock(tmp_path, monkeypatch):
