@@ -144,3 +144,46 @@ def test_wrong_preset_rate_fails_on_the_device_clock(tmp_path, monkeypatch, fact
     failed = _failed(doc)
     assert code == 1 and {"axis.SLEW+1.rate", "axis.SET+1.rate", "axis.SLEW-1.rate"} <= failed, failed
     assert all(i.endswith(".rate") for i in failed), failed
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_device_clock_bounds_the_send_times_of_random_periodic_traffic(seed):
+    """An independent traffic generator: streams at 10 ms, 250 ms and a 1 s heartbeat with random
+    phases, random queueing delays (0–2 ms, never early), pauses (NMT stopped) and a boot-up.
+    Every stamp is at most the frame's time on the bus (no drift from the queueing delays, over
+    300 s), and the clock never lags the bus time by more than its own resolution plus the delays."""
+    import random
+
+    from host.conformance.link import DeviceClock
+
+    rng = random.Random(seed)
+    periods = {0x181: 0.010, 0x183: 0.010, 0x185: 0.250}
+    max_delay = 0.002
+    frames = []                       # (time on the bus, cob, data)
+    pause = {0x183: (rng.uniform(2, 4), rng.uniform(4, 6))}      # a stopped node: no PDOs
+    for cob, p in periods.items():
+        t = rng.uniform(0, p)
+        while t < 300.0:
+            lo, hi = pause.get(cob, (99, 99))
+            if not lo <= t <= hi:
+                frames.append((t + rng.uniform(0, max_delay), cob, b"\x01" * 8))
+            t += p
+    boot = rng.uniform(3, 7)          # node 2 resets: boot-up, then beats from there
+    for node, phase in ((1, rng.uniform(0, 1)), (2, rng.uniform(0, 1))):
+        t = phase
+        while t < 300.0:
+            if node == 2 and boot <= t < boot + 1.0:
+                t = boot + 1.0
+                frames.append((boot, 0x702, b"\x00"))
+            frames.append((t + rng.uniform(0, max_delay), 0x700 + node, b"\x05"))
+            t += 1.0
+    frames.sort()
+    clock = DeviceClock(periods, 1.0, pdo_jitter_s=max_delay, heartbeat_jitter_s=max_delay)
+    t_first = frames[0][0]
+    for t_bus, cob, data in frames:
+        stamp = clock.on_frame(cob, data)
+        assert stamp <= (t_bus - t_first) + 1e-9, (t_bus, cob, stamp)
+        if t_bus - t_first > 1.0:
+            # this frame's queueing delay and the first frame's (the origin) on top of the resolution
+            assert (t_bus - t_first) - clock.now <= clock.resolution_s() + 2 * max_delay + 1e-9, (t_bus, cob)
+    assert clock.resolution_s() == pytest.approx(0.010 + 2 * max_delay)

@@ -52,13 +52,17 @@ class DeviceClock:
     """Time on the devices' clock, counted from the periodic frames they send.
 
     Each periodic stream (a COB-ID with a documented period ``p``) is a clock: its frames are
-    ``p`` apart on the sending device's time base. The first frame of a stream (and the first
-    after a pause) is stamped with the clock's current value; each further frame with
-    ``max(previous stamp + p, now)``; the clock's value is the largest stamp so far. Since a
-    periodic frame is never sent before its period has elapsed, every stamp is a lower bound of
-    the device time at which the frame was sent; it lags that time by at most one period of the
-    fastest stream heard (10 ms while any axis or reader is OPERATIONAL; one heartbeat, 1 s, when
-    only heartbeats are heard): :meth:`resolution_s`, which the link adds to every window. A heartbeat with state 0x00 (boot-up) is not periodic: it ends
+    ``p`` apart on the sending device's time base, each sent at most ``jitter`` after its
+    scheduled time (queueing behind other frames). A frame of a stream that is not behind the
+    clock is stamped ``previous stamp + p``; the clock's value is the largest stamp so far. A
+    stream's first frame, its first after a pause, and any frame that falls behind the clock is
+    stamped with the clock's value and the stream is re-anchored ``jitter`` earlier (that frame
+    may have been queued), so a stream's stamps never run ahead of its schedule and queueing
+    delays cannot ratchet the clock forward. Every stamp is therefore a lower bound of the
+    device time at which its frame was on the bus; the clock lags that time by at most one
+    period of the fastest stream heard plus twice its jitter (10 ms + 4 ms while any axis or
+    reader is OPERATIONAL; 1 s + 20 ms when only heartbeats are heard): :meth:`resolution_s`,
+    which the link adds to every window. A heartbeat with state 0x00 (boot-up) is not periodic: it ends
     the node's heartbeat stream.
 
     Parameters
@@ -67,6 +71,9 @@ class DeviceClock:
         ``{COB-ID: period s}`` of the cyclic PDOs (DBC GenMsgCycleTime).
     heartbeat_period_s : float or None
         The documented producer heartbeat time (EDS 0x1017), s; None: heartbeats are not used.
+    pdo_jitter_s, heartbeat_jitter_s : float
+        Largest queueing delay of a PDO / a heartbeat, s (the suite's documented tolerances,
+        docs/conformance.md: 2 ms and 10 ms).
 
     Attributes
     ----------
@@ -76,26 +83,31 @@ class DeviceClock:
         Frames that advanced a stream.
     """
 
-    def __init__(self, periods_s: Dict[int, float], heartbeat_period_s: Optional[float]):
+    def __init__(self, periods_s: Dict[int, float], heartbeat_period_s: Optional[float],
+                 pdo_jitter_s: float = 0.002, heartbeat_jitter_s: float = 0.010):
         self.periods_s = dict(periods_s)
         self.heartbeat_period_s = heartbeat_period_s
+        self.pdo_jitter_s = float(pdo_jitter_s)
+        self.heartbeat_jitter_s = float(heartbeat_jitter_s)
         self.now = 0.0
         self.frames_counted = 0
-        self._last: Dict[int, float] = {}
-        self._period: Dict[int, float] = {}
+        self._last: Dict[int, float] = {}       # stream -> its schedule: stamp of its last frame
+        self._period: Dict[int, tuple] = {}     # stream -> (period, jitter)
 
     def resolution_s(self) -> float:
-        """How far ``now`` may lag the devices' time, s: the shortest period among the streams
-        heard within their last two periods (0 when none is: nothing advances the clock).
+        """How far ``now`` may lag the devices' time, s: period + twice the jitter of the fastest
+        stream heard within its last two periods (its stamps run up to one jitter behind its
+        schedule, and its last frame may have been queued for one more; 0 when no stream is
+        heard: nothing advances the clock).
 
         A window measured from ``now`` is lengthened by this much, because ``now`` may lag the
-        device's time at its start by one such period: a stamp is a lower bound of a *time*,
-        not of an *interval*."""
+        device's time at its start by that much: a stamp is a lower bound of a *time*, not of an
+        *interval*."""
         best = 0.0
         for cob, last in self._last.items():
-            p = self._period[cob]
-            if self.now - last <= 2 * p and (best == 0.0 or p < best):
-                best = p
+            p, j = self._period[cob]
+            if self.now - last <= 2 * p + j and (best == 0.0 or p + 2 * j < best):
+                best = p + 2 * j
         return best
 
     def on_frame(self, cob_id: int, data: bytes) -> float:
@@ -104,16 +116,21 @@ class DeviceClock:
             if data[0] == 0x00:                        # boot-up: the node starts a new stream
                 self._last.pop(cob_id, None)
                 return self.now
-            period = self.heartbeat_period_s
+            period, jitter = self.heartbeat_period_s, self.heartbeat_jitter_s
         else:
             period = self.periods_s.get(cob_id)
             if period is None:
                 return self.now
+            jitter = self.pdo_jitter_s
         last = self._last.get(cob_id)
-        stamp = self.now if last is None else max(last + period, self.now)
-        self._last[cob_id] = stamp
-        self._period[cob_id] = period
-        self.now = stamp
+        if last is None or last + period < self.now:     # new, paused or behind: re-anchor
+            self._last[cob_id] = self.now - jitter
+            stamp = self.now
+        else:
+            stamp = last + period
+            self._last[cob_id] = stamp
+        self._period[cob_id] = (period, jitter)
+        self.now = max(self.now, stamp)
         self.frames_counted += 1
         return stamp
 

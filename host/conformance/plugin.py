@@ -140,7 +140,9 @@ class Conformance:
         from host.conformance.link import DeviceClock
         periods = {m.frame_id: m.cycle_time / 1000.0 for m in self.docs.dbc.messages if m.cycle_time}
         hb = {int(k.od(1)[0x1017].default) for k in self.docs.kinds.values()}
-        return DeviceClock(periods, hb.pop() / 1000.0 if len(hb) == 1 and 0 not in hb else None)
+        tol = self.docs.tolerances
+        return DeviceClock(periods, hb.pop() / 1000.0 if len(hb) == 1 and 0 not in hb else None,
+                           pdo_jitter_s=tol.pdo_jitter_s, heartbeat_jitter_s=tol.heartbeat_jitter_s)
 
     def open(self) -> Link:
         if self.link is None:
