@@ -25,8 +25,8 @@ GUEST = ROOT / ".ci" / "vcan-guest" / "run"
 #: conformance suite against serve last, it is the longest).
 VCAN_TEST_FILES = ("tests/test_vcan.py", "tests/test_vcan_serve.py", "tests/test_vcan_conform.py")
 #: Wall-clock limit of the guest run [s]. Measured (docs/socketcan.md): ≈ 1.5 min without the
-#: conformance suite; the suite is ≈ 180 s of the boards' time, which the guest's emulator runs at
-#: 0.3–1× real time (up to ≈ 10 min on a loaded machine).
+#: conformance suite; the suite is ≈ 184 s of the boards' time, which the guest's emulator ran at
+#: 0.3–0.5× real time on this shared VM (whole guest run 689–1067 s).
 GUEST_TIMEOUT_S = 1500
 
 
