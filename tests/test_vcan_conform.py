@@ -32,6 +32,8 @@ from test_vcan_serve import START_TIMEOUT_S, _lines, _wait_for
 
 ROOT = Path(__file__).resolve().parent.parent
 EDS_DIR = ROOT / "bus" / "eds"
+#: serve's scenario: the default network with the plant's imperfections off (the file says why).
+SCENARIO = ROOT / "tests" / "guest" / "conform-serve.yaml"
 pytestmark = [pytest.mark.vcan, pytest.mark.skipif(_WHY is not None, reason=_WHY or "")]
 
 #: Wall-clock limit of the conform run [s] (≈ 180 s of the boards' time; the guest's emulator
@@ -50,8 +52,8 @@ def served(tmp_path_factory):
     """One ``serve --channel vcan0`` subprocess for the module; yields its output directory and
     stops it with SIGINT afterwards (exit status and report checked by the last test)."""
     out = tmp_path_factory.mktemp("serve")
-    cmd = [sys.executable, "-m", "host.cli", "serve", "--channel", CHANNEL, "--duration", "1200",
-           "--out", str(out)]
+    cmd = [sys.executable, "-m", "host.cli", "serve", str(SCENARIO), "--channel", CHANNEL,
+           "--duration", "1200", "--out", str(out)]
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             stdin=subprocess.DEVNULL)
     q: queue.Queue = queue.Queue()
@@ -77,9 +79,8 @@ def _expected_parameters(node_id: int) -> dict:
     from boards.registry import board_of_node
     from host.network import build_network
     from host.scenario import load_scenario
-    from host.serve import DEFAULT_SCENARIO
 
-    tel = build_network(load_scenario(DEFAULT_SCENARIO))
+    tel = build_network(load_scenario(SCENARIO))
     try:
         fw = tel.boards[board_of_node(node_id)]
         return {key: fw.od_read(*key) for key in _ranged_objects(node_id)}
