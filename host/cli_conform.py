@@ -33,8 +33,14 @@ def add_subparser(sub: argparse._SubParsersAction) -> None:
                         help="skip them (default on a real bus)")
     p.add_argument("--timing", choices=("assert", "report"), default="assert",
                    help="assert the timing checks (default) or only report them")
+    p.add_argument("--clock", choices=("device", "wall"), default="device",
+                   help="on a real bus, wait on the devices' clock, counted from their periodic frames "
+                        "(default: a board or an emulator slower than real time gets its documented "
+                        "windows in its own time), or on the wall clock")
+    p.add_argument("--min-rate", type=float, default=0.05, metavar="R",
+                   help="device clock: a wait of dt seconds gives up after dt / R wall seconds (default 0.05)")
     p.add_argument("--reaction-slack", type=float, default=0.0, metavar="S",
-                   help="seconds added to every reaction timeout on a real bus (a slow emulator behind serve)")
+                   help="seconds added to every reaction timeout on a real bus (for --clock wall)")
     p.add_argument("--capture", type=float, default=5.5, help="seconds of traffic for the period checks")
     p.add_argument("-k", dest="keyword", default=None, help="pytest -k expression selecting checks")
     p.add_argument("--out", type=Path, default=None, help="write conformance.json and conformance.md here")
@@ -49,7 +55,8 @@ def pytest_args(args: argparse.Namespace) -> list[str]:
     argv = [str(here / m) for m in CHECK_MODULES]
     argv += ["-o", "python_files=check_*.py", "-p", "no:cacheprovider", "--rootdir", str(here),
              "-q", "--cf-timing", args.timing, "--cf-capture", str(args.capture),
-             "--cf-reaction-slack", str(args.reaction_slack)]
+             "--cf-reaction-slack", str(args.reaction_slack), "--cf-clock", args.clock,
+             "--cf-min-rate", str(args.min_rate)]
     for opt, val in (("--cf-interface", args.interface), ("--cf-channel", args.channel),
                      ("--cf-bitrate", args.bitrate), ("--cf-scenario", args.scenario),
                      ("--cf-nodes", args.nodes), ("--cf-allow-motion", args.allow_motion),

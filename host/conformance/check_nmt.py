@@ -68,9 +68,24 @@ def test_nmt_stop(node, conf, check):
 
 
 def _boot_up(conf, node, command):
+    """Send NMT ``command``; the boot-up frame (``00`` on 0x700 + node) within the NMT reaction
+    time, or None. At most one heartbeat may come before it: one the node had sent before the
+    command reached it (in flight; a slow emulator has several ms of them). A second one means
+    the node went on beating for a period instead of resetting: then None."""
     tol = conf.docs.tolerances
+    cob = 0x700 + node.node_id
+    earlier = []
+
+    def boot_or_count(f):
+        if f.cob_id != cob:
+            return False
+        if f.data == b"\x00" or len(earlier) >= 1:
+            return True
+        earlier.append(f)
+        return False
+
     conf.nmt(node.node_id, command)
-    boot = conf.link.pump_until(lambda f: f.cob_id == 0x700 + node.node_id, tol.nmt_reaction_s)
+    boot = conf.link.pump_until(boot_or_count, tol.nmt_reaction_s)
     return boot
 
 
@@ -78,7 +93,8 @@ def test_nmt_reset_communication(node, conf, check):
     """Reset communication: boot-up message (0x00), then PRE-OPERATIONAL (heartbeat 0x7F, no PDO)."""
     conf.ensure_operational(node)
     boot = _boot_up(conf, node, "reset communication")
-    check("nmt.reset_communication.boot_up", node, "boot-up 0x00 on 0x700+node after NMT 0x82",
+    check("nmt.reset_communication.boot_up", node, "boot-up 0x00 on 0x700+node after NMT 0x82 (at most one "
+          "heartbeat sent before the command arrived first)",
           boot and boot.data.hex(), boot is not None and boot.data == b"\x00")
     st = conf.heartbeat_state(node.node_id, conf.heartbeat_period_s(node) + conf.docs.tolerances.nmt_reaction_s)
     check("nmt.reset_communication.pre_operational", node, "then heartbeat 0x7F", st, st == 0x7F)
@@ -95,7 +111,8 @@ def test_nmt_reset_node(node, conf, check):
     diag = 0x2F00 in node.od
     before = node.remote.sdo[0x2F00][2].raw if diag else None
     boot = _boot_up(conf, node, "reset node")
-    check("nmt.reset_node.boot_up", node, "boot-up 0x00 on 0x700+node after NMT 0x81",
+    check("nmt.reset_node.boot_up", node, "boot-up 0x00 on 0x700+node after NMT 0x81 (at most one "
+          "heartbeat sent before the command arrived first)",
           boot and boot.data.hex(), boot is not None and boot.data == b"\x00")
     st = conf.heartbeat_state(node.node_id, conf.heartbeat_period_s(node) + conf.docs.tolerances.nmt_reaction_s)
     check("nmt.reset_node.pre_operational", node, "then heartbeat 0x7F", st, st == 0x7F)

@@ -21,12 +21,27 @@ __all__ = ["DEFAULT_SCENARIO", "open_emulator_link"]
 DEFAULT_SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "tracking-low-preload.yaml"
 
 
-def open_emulator_link(scenario_path: Path | None = None, sdo_timeout_s: float = 0.02) -> Link:
+#: Burst pattern of a slow emulator (``rate``): the emulator's advance per wall step is
+#: ``rate × step × X``, X drawn from these with equal weight (mean 1): it stalls, crawls and
+#: catches up, as the paced emulator behind ``serve`` does in a software-emulated guest.
+BURSTS = (0.0, 0.0, 0.0, 0.5, 1.0, 1.5, 4.0)
+
+
+def open_emulator_link(scenario_path: Path | None = None, sdo_timeout_s: float = 0.02, *,
+                       rate: float | None = None, seed: int = 1, device_clock=None,
+                       min_rate: float = 0.05) -> Link:
     """Build the scenario's network in simulated time and return a link on its bus.
 
     The scenario's ``segments`` are not run (nothing commands the boards but the suite); its
     plant, controller and faults are used. A scenario on ``socketcan`` is built on the
     in-process bus instead.
+
+    With ``rate`` (a test aid for the device clock, docs/conformance.md) the link runs on a
+    *virtual wall clock* in 1 ms steps and the emulator follows it slower and in bursts — on
+    average ``rate`` simulated seconds per wall second, never ahead of the wall clock, seeded
+    (``seed``) so a run is repeatable. The link then waits as on a real bus: on
+    ``device_clock`` (counted from the frames) if given, else on that wall clock; the suite
+    never reads the emulator's clock.
 
     Raises
     ------
@@ -49,5 +64,24 @@ def open_emulator_link(scenario_path: Path | None = None, sdo_timeout_s: float =
         # at least 1 µs: a float deadline a hair past now must not stall the caller's loop
         sched.run_until(max(sched.now_us + 1, int(math.ceil(until_s * 1e6 - 1e-3))))
 
-    return Link(bus, advance, lambda: sched.now_us / 1e6, sdo_timeout_s=sdo_timeout_s,
-                description=f"in-process emulator, simulated time ({path.name})", close=tel.close)
+    if rate is None:
+        return Link(bus, advance, lambda: sched.now_us / 1e6, sdo_timeout_s=sdo_timeout_s,
+                    description=f"in-process emulator, simulated time ({path.name})", close=tel.close)
+
+    import random
+    rng = random.Random(seed)
+    wall = [sched.now_us / 1e6]
+
+    def advance_slowly(until_wall_s: float) -> None:
+        dt = max(until_wall_s - wall[0], 1e-6)
+        wall[0] += dt
+        target = min(wall[0], sched.now_us / 1e6 + rate * dt * rng.choice(BURSTS))
+        sched.run_until(max(sched.now_us, int(target * 1e6)))
+
+    which = "the devices' clock" if device_clock is not None else "the wall clock"
+    link = Link(bus, advance_slowly, lambda: wall[0], step_s=1e-3, sdo_timeout_s=sdo_timeout_s,
+                device_clock=device_clock, min_rate=min_rate, close=tel.close,
+                description=f"in-process emulator at {rate:g}× a virtual wall clock, bursty "
+                            f"(seed {seed}); waits on {which} ({path.name})")
+    link.wall_kind = "virtual wall"
+    return link

@@ -8,7 +8,15 @@ consumer). Checks wait with :meth:`Link.wait` / :meth:`Link.pump_until`:
   (``advance(dt_us)``) in ``step_s`` steps and drains the bus (nothing arrives while ``recv``
   waits on that bus: it returns at once); timestamps are simulated seconds;
 * in real time (``serve`` on vcan0, real boards on can0) waiting is ``bus.recv(timeout)``;
-  timestamps are the kernel's (``time.time()`` base).
+  the kernel's timestamps (``time.time()`` base) are kept as each frame's ``wall``.
+
+On a real bus the link's time (:meth:`Link.now`, each frame's ``t``) is by default the
+**devices' own clock** (:class:`DeviceClock`): counted from the periodic frames the nodes send
+at their documented periods (DBC ``GenMsgCycleTime`` = EDS event timer; the CiA heartbeat at
+0x1017), so a wait of 50 ms is 50 ms of the boards' time however fast the boards (or an
+emulator behind ``serve``) run against the wall clock. Every wait also has a wall-clock cap
+(``dt / min_rate``) so a silent bus cannot hang the suite. The timing checks use ``wall``
+(docs/conformance.md, "Which clock").
 
 The conformance host produces its own CiA heartbeat (node 0x10, docs/protocol.md) every
 second while it waits, unless :attr:`Link.heartbeat_on` is False.
@@ -18,12 +26,12 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Callable, List, Optional
+from typing import Callable, Dict, List, Optional
 
 import can
 import canopen
 
-__all__ = ["Frame", "Link", "MasterNetwork", "HOST_NODE"]
+__all__ = ["DeviceClock", "Frame", "Link", "MasterNetwork", "HOST_NODE"]
 
 #: The host's node id (docs/protocol.md: 0x10, device type 0x10 HOST).
 HOST_NODE = 0x10
@@ -31,11 +39,100 @@ HOST_NODE = 0x10
 
 @dataclass(frozen=True)
 class Frame:
-    """A received frame: time (s, the link's clock), identifier, payload."""
+    """A received frame: time (s, the link's clock: simulated or the devices'), identifier,
+    payload, and the receiver's wall-clock time (s; simulated time in-process)."""
 
     t: float
     cob_id: int
     data: bytes
+    wall: float = 0.0
+
+
+class DeviceClock:
+    """Time on the devices' clock, counted from the periodic frames they send.
+
+    Each periodic stream (a COB-ID with a documented period ``p``) is a clock: its frames are
+    ``p`` apart on the sending device's time base, each sent at most ``jitter`` after its
+    scheduled time (queueing behind other frames). A frame of a stream that is not behind the
+    clock is stamped ``previous stamp + p``; the clock's value is the largest stamp so far. A
+    stream's first frame, its first after a pause, and any frame that falls behind the clock is
+    stamped with the clock's value and the stream is re-anchored ``jitter`` earlier (that frame
+    may have been queued), so a stream's stamps never run ahead of its schedule and queueing
+    delays cannot ratchet the clock forward. Every stamp is therefore a lower bound of the
+    device time at which its frame was on the bus; the clock lags that time by at most one
+    period of the fastest stream heard plus twice its jitter (10 ms + 4 ms while any axis or
+    reader is OPERATIONAL; 1 s + 20 ms when only heartbeats are heard): :meth:`resolution_s`,
+    which the link adds to every window. A heartbeat with state 0x00 (boot-up) is not periodic: it ends
+    the node's heartbeat stream.
+
+    Parameters
+    ----------
+    periods_s : dict
+        ``{COB-ID: period s}`` of the cyclic PDOs (DBC GenMsgCycleTime).
+    heartbeat_period_s : float or None
+        The documented producer heartbeat time (EDS 0x1017), s; None: heartbeats are not used.
+    pdo_jitter_s, heartbeat_jitter_s : float
+        Largest queueing delay of a PDO / a heartbeat, s (the suite's documented tolerances,
+        docs/conformance.md: 2 ms and 10 ms).
+
+    Attributes
+    ----------
+    now : float
+        Device time, s, from 0 at the link's opening.
+    frames_counted : int
+        Frames that advanced a stream.
+    """
+
+    def __init__(self, periods_s: Dict[int, float], heartbeat_period_s: Optional[float],
+                 pdo_jitter_s: float = 0.002, heartbeat_jitter_s: float = 0.010):
+        self.periods_s = dict(periods_s)
+        self.heartbeat_period_s = heartbeat_period_s
+        self.pdo_jitter_s = float(pdo_jitter_s)
+        self.heartbeat_jitter_s = float(heartbeat_jitter_s)
+        self.now = 0.0
+        self.frames_counted = 0
+        self._last: Dict[int, float] = {}       # stream -> its schedule: stamp of its last frame
+        self._period: Dict[int, tuple] = {}     # stream -> (period, jitter)
+
+    def resolution_s(self) -> float:
+        """How far ``now`` may lag the devices' time, s: period + twice the jitter of the fastest
+        stream heard within its last two periods (its stamps run up to one jitter behind its
+        schedule, and its last frame may have been queued for one more; 0 when no stream is
+        heard: nothing advances the clock).
+
+        A window measured from ``now`` is lengthened by this much, because ``now`` may lag the
+        device's time at its start by that much: a stamp is a lower bound of a *time*, not of an
+        *interval*."""
+        best = 0.0
+        for cob, last in self._last.items():
+            p, j = self._period[cob]
+            if self.now - last <= 2 * p + j and (best == 0.0 or p + 2 * j < best):
+                best = p + 2 * j
+        return best
+
+    def on_frame(self, cob_id: int, data: bytes) -> float:
+        """Account for a received frame; return the clock's value after it."""
+        if 0x701 <= cob_id <= 0x77F and len(data) == 1 and self.heartbeat_period_s:
+            if data[0] == 0x00:                        # boot-up: the node starts a new stream
+                self._last.pop(cob_id, None)
+                return self.now
+            period, jitter = self.heartbeat_period_s, self.heartbeat_jitter_s
+        else:
+            period = self.periods_s.get(cob_id)
+            if period is None:
+                return self.now
+            jitter = self.pdo_jitter_s
+        last = self._last.get(cob_id)
+        if last is None or last + period < self.now:     # new, paused or behind: re-anchor
+            self._last[cob_id] = self.now - jitter
+            stamp = self.now
+        else:
+            stamp = last + period
+            self._last[cob_id] = stamp
+        self._period[cob_id] = (period, jitter)
+        self.now = max(self.now, stamp)
+        self.frames_counted += 1
+        return stamp
 
 
 class MasterNetwork(canopen.Network):
@@ -78,34 +175,62 @@ class Link:
         ``advance(until_s)``: run the emulator's clock to ``until_s`` (simulated time); None on a
         real bus (real time).
     now : callable
-        The clock, seconds (simulated, or ``time.time``).
+        The receiver's clock, seconds (simulated, ``time.time``, or a test's virtual wall clock).
     step_s : float
-        Simulated-time step while waiting, s (100 µs).
+        Step of ``now`` while waiting, s (100 µs of simulated time).
     sdo_timeout_s : float
-        How long an SDO request waits for its answer, s.
+        How long an SDO request waits for its answer, s (the link's time).
+    device_clock : DeviceClock or None
+        Measure the link's time on the devices' clock (see the module docstring); None: the
+        link's time is ``now``.
+    min_rate : float
+        With a device clock: a wait of ``dt`` gives up after ``dt / min_rate`` of ``now`` (the
+        slowest device rate, device s per wall s, the suite waits for).
     """
 
     def __init__(self, bus: can.BusABC, advance: Optional[Callable[[float], None]],
                  now: Callable[[], float], *, step_s: float = 100e-6, sdo_timeout_s: float = 0.1,
-                 description: str = "", close: Optional[Callable[[], None]] = None):
+                 description: str = "", close: Optional[Callable[[], None]] = None,
+                 device_clock: Optional[DeviceClock] = None, min_rate: float = 0.05):
         self.bus = bus
         self._advance = advance
-        self.now = now
+        self.wall = now
         self.step_s = step_s
         self.simulated = advance is not None
+        self.clock = device_clock
+        self.min_rate = float(min_rate)
+        self.capped_waits = 0
+        #: what ``now`` is: "simulated", "wall" or (a test's) "virtual wall"
+        self.wall_kind = "simulated" if self.simulated else "wall"
         self.description = description
         self.frames: List[Frame] = []
         self.sent: List[Frame] = []
         self.master = MasterNetwork(self, sdo_timeout_s)
         self.heartbeat_on = True
         self.heartbeat_state = 0x05
+        self._wall0 = self.wall()
         self._next_beat = self.now()
         self._close = close
+
+    def now(self) -> float:
+        """The link's time, s: the devices' clock (with a :class:`DeviceClock`) or ``wall()``."""
+        return self.clock.now if self.clock is not None else self.wall()
+
+    def clock_summary(self) -> dict:
+        """Which clock the link's time is, and how far it and the wall clock advanced."""
+        wall_s = self.wall() - self._wall0
+        if self.clock is None:
+            return {"clock": self.wall_kind, "elapsed_s": round(wall_s, 3)}
+        return {"clock": "device", "device_s": round(self.clock.now, 3), "wall_s": round(wall_s, 3),
+                "wall": self.wall_kind,
+                "device_s_per_wall_s": round(self.clock.now / wall_s, 4) if wall_s > 0 else None,
+                "frames_counted": self.clock.frames_counted, "waits_capped": self.capped_waits,
+                "min_rate": self.min_rate}
 
     # -------------------------------------------------------------------------- sending
     def send(self, cob_id: int, data: bytes) -> None:
         """Send one standard (11-bit) data frame."""
-        self.sent.append(Frame(self.now(), cob_id, bytes(data)))
+        self.sent.append(Frame(self.now(), cob_id, bytes(data), self.wall()))
         self.bus.send(can.Message(arbitration_id=cob_id, data=bytes(data), is_extended_id=False))
 
     def _beat(self) -> None:
@@ -115,8 +240,15 @@ class Link:
 
     # -------------------------------------------------------------------------- receiving
     def _take(self, msg: can.Message) -> Frame:
-        f = Frame(float(msg.timestamp) if not self.simulated or msg.timestamp else self.now(),
-                  msg.arbitration_id, bytes(msg.data))
+        wall = float(msg.timestamp) if not self.simulated or msg.timestamp else self.wall()
+        if self.clock is not None:
+            if self.simulated:              # a test's virtual wall clock: stamp on arrival
+                wall = self.wall()
+            t = self.clock.on_frame(msg.arbitration_id, bytes(msg.data)) if not (
+                msg.is_error_frame or msg.is_remote_frame) else self.clock.now
+        else:
+            t = wall
+        f = Frame(t, msg.arbitration_id, bytes(msg.data), wall)
         self.frames.append(f)
         if not msg.is_error_frame and not msg.is_remote_frame:
             self.master.notify(f.cob_id, bytearray(f.data), f.t)
@@ -126,11 +258,14 @@ class Link:
         """Advance to ``until_s`` at most one step; return the frames received meanwhile."""
         got: List[Frame] = []
         if self.simulated:
-            self._advance(min(until_s, self.now() + self.step_s))
+            if self.clock is not None:       # ``until_s`` is device time: one step of ``wall``
+                self._advance(self.wall() + self.step_s)
+            else:
+                self._advance(min(until_s, self.now() + self.step_s))
             while (m := self.bus.recv(0.0)) is not None:
                 got.append(self._take(m))
         else:
-            timeout = max(0.0, min(until_s - self.now(), 0.05))
+            timeout = 0.02 if self.clock is not None else max(0.0, min(until_s - self.now(), 0.05))
             m = self.bus.recv(timeout)
             while m is not None:
                 got.append(self._take(m))
@@ -138,18 +273,35 @@ class Link:
         self._beat()
         return got
 
+    def _going(self, end: float, wall_end: float) -> bool:
+        if self.now() >= end:
+            return False
+        if self.clock is not None and self.wall() >= wall_end:
+            self.capped_waits += 1          # the devices' clock stood still: reported
+            return False
+        return True
+
+    def _ends(self, dt_s: float):
+        """(end on the link's clock, end on the wall clock) of a window of ``dt_s``: on the
+        devices' clock lengthened by its resolution and capped at ``dt / min_rate`` wall s."""
+        if self.clock is None:
+            return self.now() + dt_s, float("inf")
+        dt_s += self.clock.resolution_s()
+        return self.now() + dt_s, self.wall() + dt_s / self.min_rate + 1.0
+
     def wait(self, dt_s: float) -> List[Frame]:
-        """Let ``dt_s`` pass; return every frame received meanwhile."""
-        end = self.now() + dt_s
+        """Let ``dt_s`` of the link's time pass; return every frame received meanwhile."""
+        end, wall_end = self._ends(dt_s)
         out: List[Frame] = []
-        while self.now() < end:
+        while self._going(end, wall_end):
             out.extend(self._poll(end))
         return out
 
     def pump_until(self, pred: Callable[[Frame], bool], timeout_s: float) -> Optional[Frame]:
-        """Wait until a received frame satisfies ``pred`` (returned) or ``timeout_s`` (None)."""
-        end = self.now() + timeout_s
-        while self.now() < end:
+        """Wait until a received frame satisfies ``pred`` (returned) or ``timeout_s`` of the
+        link's time has passed (None)."""
+        end, wall_end = self._ends(timeout_s)
+        while self._going(end, wall_end):
             for f in self._poll(end):
                 if pred(f):
                     return f
@@ -164,8 +316,10 @@ class Link:
 
 
 def open_real_link(interface: str, channel: str, bitrate: Optional[int] = None,
-                   sdo_timeout_s: float = 0.1) -> Link:
-    """A link on a python-can bus in real time (socketcan vcan0/can0, or any interface).
+                   sdo_timeout_s: float = 0.1, device_clock: Optional[DeviceClock] = None,
+                   min_rate: float = 0.05) -> Link:
+    """A link on a python-can bus in real time (socketcan vcan0/can0, or any interface); its
+    time is ``device_clock`` if given, else the wall clock.
 
     Raises
     ------
@@ -179,5 +333,6 @@ def open_real_link(interface: str, channel: str, bitrate: Optional[int] = None,
         bus = can.Bus(**kwargs)
     except (OSError, can.CanError, ValueError, ImportError) as exc:
         raise ValueError(f"cannot open {interface} channel {channel!r} ({exc})") from None
-    return Link(bus, None, time.time, sdo_timeout_s=sdo_timeout_s,
-                description=f"{interface} {channel} (real time)")
+    which = "the devices' clock" if device_clock is not None else "wall clock"
+    return Link(bus, None, time.time, sdo_timeout_s=sdo_timeout_s, device_clock=device_clock,
+                min_rate=min_rate, description=f"{interface} {channel} (real time; waits on {which})")

@@ -49,7 +49,16 @@ def pytest_addoption(parser):
     g.addoption("--cf-capture", type=float, default=5.5,
                 help="seconds of periodic traffic captured for the period and jitter checks")
     g.addoption("--cf-reaction-slack", type=float, default=0.0,
-                help="seconds added to every reaction timeout on a real bus (a slow emulator behind serve)")
+                help="seconds added to every reaction timeout on a real bus (with --cf-clock wall)")
+    g.addoption("--cf-clock", default="device", choices=("device", "wall"),
+                help="on a real bus, wait on the devices' clock (counted from their periodic frames; "
+                     "default) or on the wall clock")
+    g.addoption("--cf-min-rate", type=float, default=0.05,
+                help="device clock: a wait of dt gives up after dt / this many wall seconds")
+    g.addoption("--cf-emulator-rate", type=float, default=None,
+                help="test aid: run the in-process emulator at this fraction of a virtual wall clock "
+                     "(bursty, seeded) and wait as on a real bus")
+    g.addoption("--cf-emulator-seed", type=int, default=1, help="seed of --cf-emulator-rate's bursts")
     g.addoption("--cf-out", default=None, help="write conformance.json and conformance.md here")
 
 
@@ -124,19 +133,42 @@ class Conformance:
     def timing_asserted(self) -> bool:
         return self.opt("--cf-timing") == "assert"
 
+    def device_clock(self):
+        """A :class:`~host.conformance.link.DeviceClock` from the documents: every DBC message
+        with a cycle time is a periodic stream; the heartbeat is one at the EDS 0x1017 period if
+        all EDS files give the same (else heartbeats are not counted)."""
+        from host.conformance.link import DeviceClock
+        periods = {m.frame_id: m.cycle_time / 1000.0 for m in self.docs.dbc.messages if m.cycle_time}
+        hb = {int(k.od(1)[0x1017].default) for k in self.docs.kinds.values()}
+        tol = self.docs.tolerances
+        return DeviceClock(periods, hb.pop() / 1000.0 if len(hb) == 1 and 0 not in hb else None,
+                           pdo_jitter_s=tol.pdo_jitter_s, heartbeat_jitter_s=tol.heartbeat_jitter_s)
+
     def open(self) -> Link:
         if self.link is None:
+            device = self.opt("--cf-clock") == "device"
+            min_rate = float(self.opt("--cf-min-rate"))
+            if not 0 < min_rate <= 1:
+                raise pytest.UsageError(f"--min-rate: expected 0 < rate <= 1, got {min_rate}")
             if self.in_process:
                 from host.conformance.emulator import open_emulator_link
                 scen = self.opt("--cf-scenario")
-                self.link = open_emulator_link(Path(scen) if scen else None)
+                rate = self.opt("--cf-emulator-rate")
+                if rate is not None and not 0 < rate <= 1:
+                    raise pytest.UsageError(f"--cf-emulator-rate: expected 0 < rate <= 1, got {rate}")
+                self.link = open_emulator_link(
+                    Path(scen) if scen else None, rate=rate, seed=self.opt("--cf-emulator-seed"),
+                    device_clock=self.device_clock() if rate is not None and device else None,
+                    sdo_timeout_s=0.02 if rate is None else 0.1 + self.slack, min_rate=min_rate)
             else:
                 from host.conformance.link import open_real_link
                 channel = self.opt("--cf-channel")
                 if not channel:
                     raise pytest.UsageError("--cf-channel is required with --cf-interface")
                 self.link = open_real_link(self.opt("--cf-interface"), channel,
-                                           self.opt("--cf-bitrate"), sdo_timeout_s=0.1 + self.slack)
+                                           self.opt("--cf-bitrate"), sdo_timeout_s=0.1 + self.slack,
+                                           device_clock=self.device_clock() if device else None,
+                                           min_rate=min_rate)
         return self.link
 
     # ------------------------------------------------------------------ the nodes
@@ -235,6 +267,14 @@ class Conformance:
     def heartbeat_period_s(self, node: NodeInfo) -> float:
         """The documented producer heartbeat time (EDS 0x1017), s."""
         return int(node.od[0x1017].default) / 1000.0
+
+    def clock_resolution_s(self) -> float:
+        """How far the link's time may lag the nodes' own, s: 0 in simulated or wall-clock time;
+        on the devices' clock the period of the fastest stream heard (it counts frames, so it is
+        no finer than they come; :meth:`~host.conformance.link.DeviceClock.resolution_s`)."""
+        if self.link is None or self.link.clock is None:
+            return 0.0
+        return self.link.clock.resolution_s()
 
     def ensure_operational(self, node: NodeInfo) -> None:
         self.nmt(node.node_id, "start")
@@ -359,8 +399,10 @@ def stats(values: List[float]) -> dict:
 
 
 def intervals(frames: List[Frame], cob_id: int) -> List[float]:
-    """Intervals between successive frames with identifier ``cob_id``, s."""
-    t = [f.t for f in frames if f.cob_id == cob_id]
+    """Intervals between successive frames with identifier ``cob_id``, s, on the receiver's
+    clock (``Frame.wall``: simulated time in-process, the kernel's timestamps on a real bus) —
+    never on the devices' clock, which is counted from these very periods."""
+    t = [f.wall for f in frames if f.cob_id == cob_id]
     return [b - a for a, b in zip(t, t[1:])]
 
 

@@ -33,6 +33,7 @@ def write_reports(out: Path, conf) -> None:
         "motion": "allowed" if conf.motion_allowed else "not allowed (checks that move skipped)",
         "tolerances": asdict(conf.docs.tolerances),
         "nodes": {str(n.node_id): n.kind.name for n in nodes},
+        "clock": link.clock_summary() if link is not None else None,
         "summary": summary(conf.records),
     }
     if conf.lateness:
@@ -47,6 +48,7 @@ def write_reports(out: Path, conf) -> None:
              f"- bus: {head['bus']}", f"- written: {head['written']}",
              f"- timing checks: {head['timing']}", f"- motion: {head['motion']}",
              f"- nodes: " + (", ".join(f"{k} ({v})" for k, v in head["nodes"].items()) or "none"),
+             f"- clock of the waits: {head['clock']}",
              f"- **{s['passed']} passed, {s['failed']} failed** of {s['checks']} checks"
              + (f"; {s['reported_only']} timing checks reported only "
                 f"({s['reported_only_outside_tolerance']} outside tolerance)" if s["reported_only"] else ""),
