@@ -14,8 +14,8 @@ Algorithm
    the peak's width; gravity imbalance whenever the travel spans ≥ :data:`GRAVITY_MIN_SPAN_RAD`.
    All are fitted with physical bounds (friction, σ1, Ts − Fc ≥ 0 via bounded linear least squares;
    widths, periods, σ0/Fc > 0 and inside their window via ``scipy.optimize.least_squares``).
-   Out-of-library descriptions compete too: a **friction drift** over the record and a
-   **torque-to-motion delay**.
+   Out-of-library descriptions compete too: a **friction drift** over the record (friction × τ,
+   τ² and a first-order transient) and a **torque-to-motion delay** (every column shifted in time).
 3. **Acceptance — prediction of data the fit did not see.** The decimated record is cut into
    ``k_folds`` contiguous time blocks; each block is predicted by the model fitted on the others,
    for the current model and for the current model plus the candidate (hyper-parameters as refined
@@ -29,7 +29,11 @@ Algorithm
    description wins only if it predicts significantly better than the best library candidate. A
    time-periodic candidate at a frequency where the motion itself has a line must pass the test
    again with a flexible velocity function in both models (so a velocity-dependent model error
-   cannot pass as a disturbance). Transitions (pre-sliding displacement, backlash width) under
+   cannot pass as a disturbance). **Is it the cause?** A library effect must also keep its
+   predictive gain (same test, same level) when each out-of-library description of a model error
+   (drift, delay, as fitted in that step) and, if the baseline left it out, the best Stribeck term
+   are added to *both* models (:func:`_robustness`): a term that only absorbs a model error loses
+   its gain once that error has its own description. Transitions (pre-sliding displacement, backlash width) under
    :data:`MIN_TRANSITION_COUNTS` position quanta are not resolved and not added.
 4. **Out-of-library structure**: a winning out-of-library description is kept in the working model
    (so library effects can still be found on top) but never written to the plant file; it and any
