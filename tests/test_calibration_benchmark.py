@@ -94,10 +94,9 @@ def test_benchmark_no_invention_on_ci_subset(ci_benchmark):
 
 
 @pytest.mark.xfail(strict=True, reason=(
-    "issue 7 targets not reached (measured 2026-11-22, docs/calibration.md 'Session 5'): on the CI subset the exact set "
-    "is named right on 9 of 11 records (target 90 %); misses are the barely excited pre-sliding of seed 3 and the pair "
-    "of seed 30, whose asymmetric friction is taken by the friction-drift description; the backlash width of seed 4 "
-    "is 40 % off (target 30 %)"))
+    "issue 7 targets not reached (measured, docs/calibration.md 'Benchmark'): on the CI subset the exact set is "
+    "named right on about 3 of 4 records (target 90 %); misses are barely excited pre-sliding, a backlash record "
+    "that also gets a gravity term, and a pair whose asymmetric friction is not found"))
 def test_benchmark_targets_on_ci_subset(ci_benchmark):
     """The issue's exact-set and key-parameter targets on the fixed CI subset."""
     _, res = ci_benchmark

@@ -30,8 +30,7 @@ with ``w = dq`` and ``c = sign(dq)`` in the baseline. Effects change this as fol
 the offset, which the two Coulomb levels then absorb — it is not separately identifiable);
 ``presliding`` replaces ``c`` by the normalised LuGre bristle force ``s`` (ds/dt = k(w − |w|s),
 ``k = σ0/Fc``) and adds ``σ1·(w − |w|s)``; ``backlash`` computes ``w`` and ``c`` from the
-play-operator output of the position (the load moves only once the gap is closed) and splits the
-inertia into a motor part (``J·ddq``) and a load part (``J_l·dw/dt``, both ≥ 0);
+play-operator output of the position (the load moves only once the gap is closed);
 ``position_periodic``, ``gravity_imbalance`` and ``time_periodic`` add sine/cosine column pairs.
 Nonlinear hyper-parameters (vs, k, backlash width, periods, frequencies) are refined by
 minimising the residual sum of squares with the linear parameters solved inside (variable
@@ -230,15 +229,10 @@ class ModelSpec:
     gravity: bool = False
     time_frequencies: list[float] = dataclasses.field(default_factory=list)
     nuisance: list[str] = dataclasses.field(default_factory=list)
-    delay_s: float | None = None
-    drift_tau_s: float | None = None
-    #   time constant [s] of the exponential (warm-up) part of the "friction_drift" description
-    #   shift of the torque against the motion [s] (> 0: the motion follows the torque), used by
-    #   the out-of-library "delay" description
     #   out-of-library descriptions kept in the working model so that library effects can still be
     #   found on top of them (never written to the plant file): "friction_drift" (Coulomb and
-    #   viscous terms times τ, τ² and exp(−t/drift_tau_s), τ = normalised time), "delay" (every regressor column advanced by
-    #   ``delay_s``: the torque leads the motion it causes; the jerk column to first order before), "velocity_function" (piecewise-linear in |dq| per
+    #   viscous terms times τ and τ², τ = normalised time), "delay" (the jerk column: a shift of the
+    #   torque against the motion, to first order), "velocity_function" (piecewise-linear in |dq| per
     #   direction, used only to test whether a time line is a velocity-dependent error)
 
     def copy(self) -> "ModelSpec":
@@ -260,10 +254,6 @@ class ModelSpec:
             out.append(("position_periods", i, p))
         for i, f in enumerate(self.time_frequencies):
             out.append(("time_frequencies", i, f))
-        if self.delay_s is not None:
-            out.append(("delay_s", None, self.delay_s))
-        if self.drift_tau_s is not None:
-            out.append(("drift_tau_s", None, self.drift_tau_s))
         return out
 
     def with_hyper(self, values: np.ndarray) -> "ModelSpec":
@@ -345,12 +335,6 @@ def design_full(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None, t=No
         w = dq
     names: list[str] = ["inertia"]
     cols: list[np.ndarray] = [ddq]
-    if spec.backlash_width is not None:
-        # two-inertia split: the motor side follows the measured position, the load side the play
-        # operator's output (it coasts across the gap); without it the load's inertia sits on the
-        # motor side and the gap looks wider (issue 7: backlash widths +44 %)
-        names.append("inertia_load")
-        cols.append(np.gradient(w, dt))
     if spec.presliding_k is not None:
         c = presliding_state(w, spec.presliding_k, dt)
     else:
@@ -389,13 +373,9 @@ def design_full(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None, t=No
             tau = (t - t[0]) / max(float(t[-1] - t[0]), 1e-12)
             names += ["nz_drift_c1", "nz_drift_w1", "nz_drift_c2", "nz_drift_w2"]
             cols += [c * tau, w * tau, c * tau**2, w * tau**2]
-            if spec.drift_tau_s:
-                # a first-order (warm-up, thermal) transient: friction × exp(−t/τd)
-                e = np.exp(-(t - t[0]) / spec.drift_tau_s)
-                names += ["nz_drift_ce", "nz_drift_we"]
-                cols += [c * e, w * e]
         elif nz == "delay":
-            pass  # applied to every column below
+            names.append("nz_delay_jerk")
+            cols.append(np.gradient(ddq, dt))
         elif nz == "velocity_function":
             a = np.abs(w)
             knots = np.quantile(a, [0.05, 0.25, 0.5, 0.75, 0.95])
@@ -403,24 +383,7 @@ def design_full(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None, t=No
                 hinge = np.maximum(a - kn, 0.0)
                 names += [f"nz_vel{j}_pos", f"nz_vel{j}_neg"]
                 cols += [hinge * (w > 0), hinge * (w < 0)]
-    X = np.column_stack(cols)
-    if "delay" in spec.nuisance and spec.delay_s:
-        X = advance(X, float(spec.delay_s) / dt)
-    return names, X
-
-
-def advance(X: np.ndarray, shift_samples: float) -> np.ndarray:
-    """Columns of ``X`` (shape (N, p)) evaluated ``shift_samples`` samples later (linear
-    interpolation between samples; the last sample is held at the end)."""
-    n = X.shape[0]
-    m = int(math.floor(shift_samples))
-    f = shift_samples - m
-    idx = np.minimum(np.arange(n) + m, n - 1)
-    idx1 = np.minimum(idx + 1, n - 1)
-    if m < 0:
-        idx = np.maximum(idx, 0)
-        idx1 = np.maximum(idx1, 0)
-    return X[idx] * (1.0 - f) + X[idx1] * f
+    return names, np.column_stack(cols)
 
 
 def design(prep: Prepared, spec: ModelSpec) -> tuple[list[str], np.ndarray]:
@@ -505,7 +468,7 @@ class FitResult:
 
 #: Linear parameters that are physically non-negative: fitted with these bounds (not rejected after
 #: the fact). Inertia, viscous and Coulomb friction (each direction), the LuGre bristle damping σ1, the Stribeck excess Ts − Fc.
-NONNEGATIVE = ("inertia", "inertia_load", "viscous", "coulomb", "viscous_pos", "viscous_neg", "coulomb_pos", "coulomb_neg",
+NONNEGATIVE = ("inertia", "viscous", "coulomb", "viscous_pos", "viscous_neg", "coulomb_pos", "coulomb_neg",
                "presliding_damping", "stribeck")
 
 
@@ -641,9 +604,7 @@ def predict(prep: Prepared, fit: FitResult, refit_phases: bool = True, return_co
     yhat, residual : ndarray
         Decimated prediction and residual (and the coefficients used, if ``return_coef``).
     """
-    spec = fit.spec.copy()
-    spec.nuisance = [nz for nz in spec.nuisance if nz != "delay"]  # record-specific, like the nz_ columns
-    names, X = design(prep, spec)
+    names, X = design(prep, fit.spec)
     coef = fit.coef.copy()
     for i, nm in enumerate(names):
         if nm.startswith("nz_"):  # out-of-library descriptions are record-specific, not part of the model

@@ -14,8 +14,8 @@ Algorithm
    the peak's width; gravity imbalance whenever the travel spans ≥ :data:`GRAVITY_MIN_SPAN_RAD`.
    All are fitted with physical bounds (friction, σ1, Ts − Fc ≥ 0 via bounded linear least squares;
    widths, periods, σ0/Fc > 0 and inside their window via ``scipy.optimize.least_squares``).
-   Out-of-library descriptions compete too: a **friction drift** over the record (friction × τ,
-   τ² and a first-order transient) and a **torque-to-motion delay** (every column shifted in time).
+   Out-of-library descriptions compete too: a **friction drift** over the record and a
+   **torque-to-motion delay**.
 3. **Acceptance — prediction of data the fit did not see.** The decimated record is cut into
    ``k_folds`` contiguous time blocks; each block is predicted by the model fitted on the others,
    for the current model and for the current model plus the candidate (hyper-parameters as refined
@@ -29,11 +29,7 @@ Algorithm
    description wins only if it predicts significantly better than the best library candidate. A
    time-periodic candidate at a frequency where the motion itself has a line must pass the test
    again with a flexible velocity function in both models (so a velocity-dependent model error
-   cannot pass as a disturbance). **Is it the cause?** A library effect must also keep its
-   predictive gain (same test, same level) when each out-of-library description of a model error
-   (drift, delay, as fitted in that step) and, if the baseline left it out, the best Stribeck term
-   are added to *both* models (:func:`_robustness`): a term that only absorbs a model error loses
-   its gain once that error has its own description. Transitions (pre-sliding displacement, backlash width) under
+   cannot pass as a disturbance). Transitions (pre-sliding displacement, backlash width) under
    :data:`MIN_TRANSITION_COUNTS` position quanta are not resolved and not added.
 4. **Out-of-library structure**: a winning out-of-library description is kept in the working model
    (so library effects can still be found on top) but never written to the plant file; it and any
@@ -445,18 +441,8 @@ def _out_of_library(ctx: _Ctx) -> list[dict[str, Any]]:
             continue
         new = ctx.cur.spec.copy()
         new.nuisance.append(name)
-        if name == "delay":
-            # a true shift: every column advanced by the delay, from half a sample to 50 ms, refined
-            dt = ctx.prep.dt_s
-            new.delay_s = dt
-            grid = np.logspace(math.log10(0.5 * dt), math.log10(max(0.05, 2 * dt)), 7)
-            f = _grid_then_fit(ctx, new, "delay_s", grid, 0.6)
-        else:
-            # friction × (τ, τ², exp(−t/τd)): τd from 5 % to 2× the record length, refined
-            T = max(float(ctx.prep.t[-1] - ctx.prep.t[0]), ctx.prep.dt_s)
-            new.drift_tau_s = T
-            f = _grid_then_fit(ctx, new, "drift_tau_s", T * np.logspace(math.log10(0.05), math.log10(2.0), 5), 0.6)
-        out.append({"kind": name, "slot": None, "fit": f, "group": "out-of-library", "evidence": evidence})
+        out.append({"kind": name, "slot": None, "fit": fit_model(ctx.prep, new), "group": "out-of-library",
+                    "evidence": evidence})
     return out
 
 
@@ -530,66 +516,14 @@ def _unexplained(prep: Prepared, fit: FitResult, cfg: LoopConfig, linear: bool, 
     return out
 
 
-def _ool_entry(kind: str, share: float, gain: float, z: float, shift_s: float | None = None) -> dict[str, Any]:
+def _ool_entry(kind: str, share: float, gain: float, z: float) -> dict[str, Any]:
     if kind == "friction_drift":
         return {"domain": "time", "frequency": None, "share_pct": share, "unit": "Hz", "kind": "friction_drift",
-                "note": (f"friction levels drift over the record (Coulomb/viscous terms × τ, τ², a first-order transient; cross-validated gain "
+                "note": (f"friction levels drift over the record (Coulomb/viscous terms × τ, τ²; cross-validated gain "
                          f"{gain:.1f} %, z = {z:.1f}): a warm-up or temperature effect, outside the library")}
     return {"domain": "time", "frequency": None, "share_pct": share, "unit": "Hz", "kind": "delay",
-            "shift_s": shift_s,
-            "note": (f"the torque leads the motion it causes by {1e3 * (shift_s or 0.0):.2f} ms (every model column advanced; "
-                     f"cross-validated gain {gain:.1f} %, z = {z:.1f}): a delay outside the library")}
-
-
-#: Out-of-library descriptions of model error a library effect's gain must survive (see :func:`_robustness`).
-ROBUSTNESS_DESCRIPTIONS = ("friction_drift", "delay")
-
-
-def _robustness(prep: Prepared, c: dict[str, Any], ool_cands: list[dict[str, Any]], cfg: LoopConfig, zc: float,
-                stribeck: tuple[ModelSpec, np.ndarray, float] | None = None) -> str | None:
-    """None if candidate ``c`` still predicts held-out blocks better when each out-of-library
-    description of a model error (:data:`ROBUSTNESS_DESCRIPTIONS`, as fitted in this step:
-    ``ool_cands``) is in both models, else why not.
-
-    A real effect is a property of the machine: its predictive gain does not depend on how the
-    model's other errors are described. A term that only absorbs a model error (a slow time line
-    taking a friction drift, a bristle transition taking a torque-to-motion delay) loses its gain
-    once that error has its own description. Same statistic and level as the main test; the
-    candidate's hyper-parameters stay as refined, the description's as fitted on its own.
-
-    ``stribeck`` (the current model with the baseline's best Stribeck term, its CV errors and its
-    CV gain over the current model), when the baseline left that term out, is one more such
-    description: the low-speed friction excess at reversals, which a bristle transition or a dead
-    zone can otherwise absorb.
-
-    Only descriptions that do not predict held-out blocks *worse* than the current model
-    (CV gain ≥ 0) are used: one that does describes no error of this record, and the conditioned
-    comparison would be dominated by its own prediction errors (session 5: a drift description
-    extrapolated into an end block, −300 % and worse, rejected real asymmetric friction and ripple).
-    """
-    if stribeck is not None and stribeck[2] >= 0.0 and c["fit"].spec.stribeck_vs is None:
-        s1 = c["fit"].spec.copy()
-        s1.stribeck_vs = stribeck[0].stribeck_vs
-        g, z = cv_compare(stribeck[1], cv_losses(prep, s1, cfg.k_folds))
-        if not (z >= zc and g > 0):
-            return (f"with the baseline's Stribeck term (vs = {s1.stribeck_vs:.3g}) in both models it no longer predicts "
-                    f"held-out blocks better (gain {g:.2f} %, z = {z:.1f}; needs z ≥ {zc:.2f}): it absorbs the low-speed "
-                    "friction excess")
-    for o in ool_cands:
-        if o["kind"] not in ROBUSTNESS_DESCRIPTIONS or not o["cv_gain_pct"] >= 0.0:
-            # a description that predicts held-out blocks worse than the current model (its τ, τ²
-            # columns extrapolated into an end block, say) describes no error of this record: the
-            # conditioned comparison would be dominated by its own prediction errors
-            continue
-        s1 = c["fit"].spec.copy()
-        s1.nuisance.append(o["kind"])
-        s1.delay_s = s1.delay_s if s1.delay_s is not None else o["fit"].spec.delay_s
-        s1.drift_tau_s = s1.drift_tau_s if s1.drift_tau_s is not None else o["fit"].spec.drift_tau_s
-        g, z = cv_compare(o["loss"], cv_losses(prep, s1, cfg.k_folds))
-        if not (z >= zc and g > 0):
-            return (f"with the out-of-library {o['kind']} description in both models it no longer predicts held-out blocks "
-                    f"better (gain {g:.2f} %, z = {z:.1f}; needs z ≥ {zc:.2f}): it absorbs that model error")
-    return None
+            "note": (f"the residual follows the jerk, i.e. the torque is shifted against the motion (cross-validated gain "
+                     f"{gain:.1f} %, z = {z:.1f}): a delay outside the library")}
 
 
 def _evaluate(prep: Prepared, c: dict[str, Any], loss_cur: np.ndarray, cfg: LoopConfig) -> None:
@@ -615,8 +549,6 @@ def run_loop(
     base, stribeck = fit_baseline(prep, cfg)
     log.append(f"baseline: rms {base.rms:.4g}, rel. error {base.relative_error_pct:.3f} %, Stribeck: {stribeck.get('reason', '')}")
     cur = base
-    # the baseline's best Stribeck term when it was left out: a competing description (see _robustness)
-    strib_alt = stribeck.get("vs") if not stribeck.get("included") else None
     val_cur = val_before = vb = None
     if prep_val is not None:
         vb = predict(prep_val, base)
@@ -636,7 +568,6 @@ def run_loop(
         if not cands:
             break
         loss_cur = cv_losses(prep, cur.spec, cfg.k_folds)
-        strib_loss = None
         for c in cands:
             _evaluate(prep, c, loss_cur, cfg)
             c["explained_pct"] = 100.0 * (cur.rss - c["fit"].rss) / cur.rss
@@ -675,25 +606,6 @@ def run_loop(
                                  "explained_pct": c["explained_pct"], "reason": why})
                 continue
             passing.append(c)
-        # "is it the cause?": a library effect's gain must survive each out-of-library description
-        # of a model error added to both models (tested lazily, best gain first)
-        survivors = []
-        for c in passing:
-            if c["kind"] in EFFECT_KINDS and not any(s["kind"] in EFFECT_KINDS for s in survivors):
-                if strib_alt is not None and strib_loss is None and cur.spec.stribeck_vs is None:
-                    s0 = cur.spec.copy()
-                    s0.stribeck_vs = strib_alt
-                    sl = cv_losses(prep, s0, cfg.k_folds)
-                    strib_loss = (s0, sl, cv_compare(loss_cur, sl)[0])
-                why = _robustness(prep, c, [o for o in cands if o["kind"] in OUT_OF_LIBRARY], cfg, zc,
-                                  strib_loss if cur.spec.stribeck_vs is None else None)
-                if why is not None:
-                    rejected.append({"kind": c["kind"], "step": step, "cv_gain_pct": c["cv_gain_pct"], "cv_z": c["cv_z"],
-                                     "explained_pct": c["explained_pct"], "reason": why})
-                    log.append(f"step {step}: {c['kind']} rejected: {why}")
-                    continue
-            survivors.append(c)
-        passing = survivors
         if not passing:
             log.append(f"step {step}: no candidate passes")
             break
@@ -719,8 +631,7 @@ def run_loop(
         f = chosen["fit"]
         won = "; ".join(f"{x['kind']} {x['cv_gain_pct']:.1f} % (z = {x['cv_z']:.1f})" for x in comps if x["cv_gain_pct"] > 0)
         if chosen["kind"] in OUT_OF_LIBRARY:
-            ool.append(_ool_entry(chosen["kind"], chosen["explained_pct"], chosen["cv_gain_pct"], chosen["cv_z"],
-                                  chosen["fit"].spec.delay_s))
+            ool.append(_ool_entry(chosen["kind"], chosen["explained_pct"], chosen["cv_gain_pct"], chosen["cv_z"]))
             log.append(f"step {step}: out-of-library {chosen['kind']} wins (gain {chosen['cv_gain_pct']:.2f} %, z {chosen['cv_z']:.1f}); "
                        "kept in the working model only")
             cur = f

@@ -2,7 +2,7 @@
 
 The calibrated axis (default ``ra``) of the shipped parameter file is replaced:
 
-* ``inertia_kg_m2`` ← fitted inertia, motor and load parts together when the backlash description split them (linear records: mass in kg, see below);
+* ``inertia_kg_m2`` ← fitted inertia (linear records: mass in kg, see below);
 * ``friction.<active set>``: ``sigma2_nm_s_rad`` ← viscous, ``tc_nm`` ← Coulomb, ``ts_nm`` ← static
   level (= Coulomb when no Stribeck term was fitted), ``omega_s_rad_s`` ← Stribeck velocity (kept
   when none was fitted: with ``ts = tc`` it has no effect);
@@ -53,7 +53,7 @@ def write_model_file(result: LoopResult, path: str | Path, record_name: str, axi
     new_set = dataclasses.replace(s, sigma2_nm_s_rad=max(visc, 0.0), tc_nm=max(coul, 0.0), ts_nm=max(ts, 0.0), omega_s_rad_s=vs)
     fr2 = dataclasses.replace(fr, **{active: new_set})
     effects = tuple(e.to_spec() for e in result.effects())
-    ax2 = dataclasses.replace(ax, inertia_kg_m2=max(names["inertia"] + names.get("inertia_load", 0.0), 1e-12), friction=fr2, effects=effects)
+    ax2 = dataclasses.replace(ax, inertia_kg_m2=max(names["inertia"], 1e-12), friction=fr2, effects=effects)
     axes = dict(params.axes)
     axes[axis] = ax2
     params2 = dataclasses.replace(params, axes=axes)

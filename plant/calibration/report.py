@@ -29,13 +29,13 @@ from plant.calibration.loop import LoopConfig, LoopResult, run_loop
 __all__ = ["calibrate", "param_names", "effect_params"]
 
 _ROT = {
-    "inertia": "inertia_kg_m2", "inertia_load": "inertia_load_kg_m2", "viscous": "viscous_nm_s_rad", "coulomb": "coulomb_nm", "offset": "offset_nm",
+    "inertia": "inertia_kg_m2", "viscous": "viscous_nm_s_rad", "coulomb": "coulomb_nm", "offset": "offset_nm",
     "viscous_pos": "viscous_pos_nm_s_rad", "viscous_neg": "viscous_neg_nm_s_rad",
     "coulomb_pos": "coulomb_pos_nm", "coulomb_neg": "coulomb_neg_nm",
     "stribeck": "static_minus_coulomb_nm", "presliding_damping": "sigma1_nm_s_rad",
 }
 _LIN = {
-    "inertia": "mass_kg", "inertia_load": "mass_load_kg", "viscous": "viscous_n_s_m", "coulomb": "coulomb_n", "offset": "offset_n",
+    "inertia": "mass_kg", "viscous": "viscous_n_s_m", "coulomb": "coulomb_n", "offset": "offset_n",
     "viscous_pos": "viscous_pos_n_s_m", "viscous_neg": "viscous_neg_n_s_m",
     "coulomb_pos": "coulomb_pos_n", "coulomb_neg": "coulomb_neg_n",
     "stribeck": "static_minus_coulomb_n", "presliding_damping": "sigma1_n_s_m",
