@@ -41,7 +41,7 @@ from boards.peripherals import Qei, Timer
 from bus import protocol as proto
 from bus.scheduler import PRIO_ISR, Scheduler
 
-__all__ = ["Tachometer", "WINDOWS_TICKS", "MIN_COUNTS", "speed_window"]
+__all__ = ["Tachometer", "QeiSpeedBoard", "WINDOWS_TICKS", "MIN_COUNTS", "speed_window"]
 
 #: Candidate speed windows, 5 ms ticks (20 ms .. 1 s), shortest first (assumed, see module doc).
 WINDOWS_TICKS = (4, 10, 20, 50, 100, proto.TACH_MAX_WINDOW_TICKS)
@@ -69,7 +69,100 @@ def speed_window(ring, windows_ticks, min_counts: int) -> tuple[int, int]:
     return w, d
 
 
-class Tachometer(Board):
+class QeiSpeedBoard(Board):
+    """A board that counts one incremental encoder in its QEI and, every ISR tick, queues its
+    TPDO1 with the adaptive-window speed (:func:`speed_window`): the common firmware of the
+    motor tachometers and the axis velocity readers (boards/velocity_reader.py).
+
+    Subclasses set :attr:`WINDOWS_TICKS`, :attr:`MIN_COUNTS`, :attr:`MAX_WINDOW_TICKS`,
+    :attr:`NO_RS232` (the ValueError text for a serial port), :meth:`_scale` (reading units per
+    count per tick), :meth:`_status_cob_id` and :meth:`_encode`.
+
+    Parameters
+    ----------
+    scheduler, bus, node_id, name
+        As :class:`boards.firmware_base.Board`.
+    read_counts : callable
+        Port: the encoder's cumulative signed count.
+    counts_per_rev : int
+        Encoder counts per revolution (> 0, ValueError otherwise).
+    period_us : int
+        ISR and TPDO period, µs.
+    serial_port : None
+        These boards have no RS232 telemetry; a port raises ValueError.
+    """
+
+    WINDOWS_TICKS: tuple = ()
+    MIN_COUNTS = 1
+    MAX_WINDOW_TICKS = 1
+    NO_RS232 = "this board has no RS232 telemetry"
+
+    def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int, *,
+                 read_counts: Callable[[], int], counts_per_rev: int, period_us: int,
+                 name: Optional[str] = None, serial_port=None) -> None:
+        if serial_port is not None:
+            raise ValueError(self.NO_RS232)
+        if int(counts_per_rev) <= 0:
+            raise ValueError(f"counts_per_rev must be > 0, got {counts_per_rev}")
+        super().__init__(scheduler, bus, node_id, name=name, background_period_us=period_us)
+        self._status_cob = self._status_cob_id(self.node_id)   # fixed: not per tick
+        self.counts_per_rev = int(counts_per_rev)
+        self.period_us = int(period_us)
+        self.qei = Qei(read_counts)
+        self.qei.reset()            # power-on: POSCNT cleared (the count is relative to power-on)
+        self._per_count_tick = self._scale()
+        self.timer = self.add_timer(Timer(scheduler, self.period_us, self.isr_tick, priority=PRIO_ISR,
+                                          owner=f"{self.name}/isr"))
+        self._init_speed_state()
+
+    def _scale(self) -> float:
+        raise NotImplementedError
+
+    def _status_cob_id(self, node_id: int) -> int:
+        raise NotImplementedError
+
+    def _encode(self, window_ticks: int, counts: int, reading: int) -> bytes:
+        raise NotImplementedError
+
+    def _peripherals(self) -> list:
+        return [self.qei]
+
+    def _init_state(self) -> None:
+        super()._init_state()
+        if hasattr(self, "qei"):
+            self._init_speed_state()
+
+    def _init_speed_state(self) -> None:
+        self._ring: deque = deque(maxlen=self.MAX_WINDOW_TICKS + 1)
+        self.reading = 0            # last speed estimate, in the frame's integer unit
+        self.window_ticks = self.MAX_WINDOW_TICKS
+        self.frames_queued = 0
+
+    # ------------------------------------------------------------------ ISR
+    def isr_tick(self, now_us: int) -> None:
+        """Timer ISR: read the QEI, update the speed estimate, queue the TPDO1."""
+        self.qei.read_delta()
+        c = self.qei.extended
+        ring = self._ring
+        ring.append(c)
+        w, d = speed_window(ring, self.WINDOWS_TICKS, self.MIN_COUNTS)
+        if w == 0:
+            self.reading, self.window_ticks = 0, 1
+        else:
+            self.reading = int(round(d * self._per_count_tick / w))
+            self.window_ticks = w
+        self.frames_queued += 1
+        self.queue(self._status_cob, self._encode(self.window_ticks, c, self.reading))
+
+    # ------------------------------------------------------------------ CANopen objects (SDO)
+    def od_read(self, index: int, subindex: int):
+        """0x2300 encoder counts per revolution."""
+        if index == 0x2300:
+            return self.counts_per_rev
+        return super().od_read(index, subindex)
+
+
+class Tachometer(QeiSpeedBoard):
     """CP-850 motor tachometer firmware (PIC18F4431 QEI).
 
     Parameters
@@ -90,70 +183,39 @@ class Tachometer(Board):
     DEVICE_TYPE = int(proto.DeviceType.TACHOMETER)
     KIND = "tachometer"
     CANOPEN_KIND = "tachometer"
+    WINDOWS_TICKS = WINDOWS_TICKS
+    MIN_COUNTS = MIN_COUNTS
+    MAX_WINDOW_TICKS = proto.TACH_MAX_WINDOW_TICKS
+    NO_RS232 = "the tachometer has no RS232 telemetry (paper §3.4: PI, position and focus boards)"
 
     def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int = 6, *,
                  read_motor_counts: Callable[[], int], counts_per_rev: int,
                  period_us: int = proto.TACH_STATUS_PERIOD_US, name: Optional[str] = None,
                  serial_port=None) -> None:
-        if serial_port is not None:
-            raise ValueError("the tachometer has no RS232 telemetry (paper §3.4: PI, position and focus boards)")
-        if int(counts_per_rev) <= 0:
-            raise ValueError(f"counts_per_rev must be > 0, got {counts_per_rev}")
-        super().__init__(scheduler, bus, node_id, name=name, background_period_us=period_us)
-        self._status_cob = proto.tach_status_cob_id(self.node_id)   # fixed: not per tick
-        self.counts_per_rev = int(counts_per_rev)
-        self.period_us = int(period_us)
-        self.qei = Qei(read_motor_counts)
-        self.qei.reset()            # power-on: POSCNT cleared (the count is relative to power-on)
-        self._urad_per_count_tick = 2.0 * math.pi / self.counts_per_rev * 1e6 / (self.period_us * 1e-6)
-        self.timer = self.add_timer(Timer(scheduler, self.period_us, self.isr_tick, priority=PRIO_ISR,
-                                          owner=f"{self.name}/isr"))
-        self._init_tach_state()
+        super().__init__(scheduler, bus, node_id, read_counts=read_motor_counts,
+                         counts_per_rev=counts_per_rev, period_us=period_us, name=name,
+                         serial_port=serial_port)
 
-    def _peripherals(self) -> list:
-        return [self.qei]
+    def _scale(self) -> float:
+        return 2.0 * math.pi / self.counts_per_rev * 1e6 / (self.period_us * 1e-6)   # µrad/s per count·tick
 
-    def _init_state(self) -> None:
-        super()._init_state()
-        if hasattr(self, "qei"):
-            self._init_tach_state()
+    def _status_cob_id(self, node_id: int) -> int:
+        return proto.tach_status_cob_id(node_id)
 
-    def _init_tach_state(self) -> None:
-        self._ring: deque = deque(maxlen=proto.TACH_MAX_WINDOW_TICKS + 1)
-        self.speed_urad_s = 0
-        self.window_ticks = proto.TACH_MAX_WINDOW_TICKS
-        self.frames_queued = 0
+    def _encode(self, window_ticks: int, counts: int, reading: int) -> bytes:
+        return proto.encode_tach_status(window_ticks, counts, reading)
+
+    @property
+    def speed_urad_s(self) -> int:
+        """Last speed estimate of the motor shaft [µrad/s] (the TACH_STATUS field)."""
+        return self.reading
 
     @property
     def speed_rad_s(self) -> float:
         """Last speed estimate [rad/s] of the motor shaft."""
-        return self.speed_urad_s * 1e-6
+        return self.reading * 1e-6
 
     def report_counters(self) -> dict:
         """Encoder resolution and the last reading (the report's board row)."""
         return {"counts_per_rev": self.counts_per_rev, "qei_counts": self.qei.extended,
                 "speed_rad_s": round(self.speed_rad_s, 6), "window_ticks": self.window_ticks}
-
-    # ------------------------------------------------------------------ ISR (5 ms)
-    def isr_tick(self, now_us: int) -> None:
-        """Timer ISR: read the QEI, update the speed estimate, queue ``TACH_STATUS``."""
-        self.qei.read_delta()
-        c = self.qei.extended
-        ring = self._ring
-        ring.append(c)
-        w, d = speed_window(ring, WINDOWS_TICKS, MIN_COUNTS)
-        if w == 0:
-            self.speed_urad_s, self.window_ticks = 0, 1
-        else:
-            self.speed_urad_s = int(round(d * self._urad_per_count_tick / w))
-            self.window_ticks = w
-        self.frames_queued += 1
-        self.queue(self._status_cob,
-                   proto.encode_tach_status(self.window_ticks, c, self.speed_urad_s))
-
-    # ------------------------------------------------------------------ CANopen objects (SDO)
-    def od_read(self, index: int, subindex: int):
-        """0x2300 encoder counts per revolution."""
-        if index == 0x2300:
-            return self.counts_per_rev
-        return super().od_read(index, subindex)

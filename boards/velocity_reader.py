@@ -28,16 +28,13 @@ the 2°/s slew uses 20 ms (12 544 counts).
 
 from __future__ import annotations
 
-from collections import deque
 from typing import Callable, Optional
 
 import can
 
-from boards.firmware_base import Board
-from boards.peripherals import Qei, Timer
-from boards.tachometer import speed_window
+from boards.tachometer import QeiSpeedBoard
 from bus import protocol as proto
-from bus.scheduler import PRIO_ISR, Scheduler
+from bus.scheduler import Scheduler
 from bus.units import ARCSEC_PER_REV
 
 __all__ = ["AxisVelocityReader", "WINDOWS_TICKS", "MIN_COUNTS"]
@@ -48,7 +45,7 @@ WINDOWS_TICKS = (2, 5, 10, 20, 50, proto.VEL_MAX_WINDOW_TICKS)
 MIN_COUNTS = 256
 
 
-class AxisVelocityReader(Board):
+class AxisVelocityReader(QeiSpeedBoard):
     """Friction-roller encoder velocity node (PIC18F4431 QEI).
 
     Parameters
@@ -73,71 +70,49 @@ class AxisVelocityReader(Board):
     DEVICE_TYPE = int(proto.DeviceType.AXIS_VELOCITY)
     KIND = "velocity_reader"
     CANOPEN_KIND = "velocity_reader"
+    WINDOWS_TICKS = WINDOWS_TICKS
+    MIN_COUNTS = MIN_COUNTS
+    MAX_WINDOW_TICKS = proto.VEL_MAX_WINDOW_TICKS
+    NO_RS232 = "the axis velocity reader has no RS232 telemetry (paper §3.4: PI, position and focus boards)"
 
     def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int = int(proto.NodeId.VEL_RA), *,
                  read_qei_counts: Callable[[], int], qei_counts_per_rev: int,
                  period_us: int = proto.AXIS_VELOCITY_PERIOD_US, name: Optional[str] = None,
                  serial_port=None) -> None:
-        if serial_port is not None:
-            raise ValueError("the axis velocity reader has no RS232 telemetry (paper §3.4: PI, position and focus boards)")
-        if int(qei_counts_per_rev) <= 0:
-            raise ValueError(f"qei_counts_per_rev must be > 0, got {qei_counts_per_rev}")
-        super().__init__(scheduler, bus, node_id, name=name, background_period_us=period_us)
-        self.qei_counts_per_rev = int(qei_counts_per_rev)
-        self.arcsec_per_count = ARCSEC_PER_REV / self.qei_counts_per_rev
-        self.period_us = int(period_us)
-        self.qei = Qei(read_qei_counts)
-        self.qei.reset()            # power-on: POSCNT cleared (the count is relative to power-on)
-        self._marcsec_s_per_count_tick = self.arcsec_per_count * 1e3 / (self.period_us * 1e-6)
-        self._status_cob = proto.axis_velocity_cob_id(self.node_id)   # fixed: not per tick
-        self.timer = self.add_timer(Timer(scheduler, self.period_us, self.isr_tick, priority=PRIO_ISR,
-                                          owner=f"{self.name}/isr"))
-        self._init_vel_state()
+        super().__init__(scheduler, bus, node_id, read_counts=read_qei_counts,
+                         counts_per_rev=qei_counts_per_rev, period_us=period_us, name=name,
+                         serial_port=serial_port)
 
-    def _peripherals(self) -> list:
-        return [self.qei]
+    @property
+    def qei_counts_per_rev(self) -> int:
+        """Encoder counts per axis revolution."""
+        return self.counts_per_rev
 
-    def _init_state(self) -> None:
-        super()._init_state()
-        if hasattr(self, "qei"):
-            self._init_vel_state()
+    @property
+    def arcsec_per_count(self) -> float:
+        """Axis angle per encoder count [arcsec]."""
+        return ARCSEC_PER_REV / self.counts_per_rev
 
-    def _init_vel_state(self) -> None:
-        self._ring: deque = deque(maxlen=proto.VEL_MAX_WINDOW_TICKS + 1)
-        self.rate_marcsec_s = 0
-        self.window_ticks = proto.VEL_MAX_WINDOW_TICKS
-        self.frames_queued = 0
+    def _scale(self) -> float:
+        return self.arcsec_per_count * 1e3 / (self.period_us * 1e-6)   # milli-″/s per count·tick
+
+    def _status_cob_id(self, node_id: int) -> int:
+        return proto.axis_velocity_cob_id(node_id)
+
+    def _encode(self, window_ticks: int, counts: int, reading: int) -> bytes:
+        return proto.encode_axis_velocity(window_ticks, counts, reading)
+
+    @property
+    def rate_marcsec_s(self) -> int:
+        """Last axis rate estimate [milli-arcsec/s] (the AXIS_VELOCITY field)."""
+        return self.reading
 
     @property
     def rate_arcsec_s(self) -> float:
         """Last axis rate estimate [arcsec/s]."""
-        return self.rate_marcsec_s * 1e-3
+        return self.reading * 1e-3
 
     def report_counters(self) -> dict:
         """Encoder resolution and the last reading (the report's board row)."""
-        return {"qei_counts_per_rev": self.qei_counts_per_rev, "qei_counts": self.qei.extended,
+        return {"qei_counts_per_rev": self.counts_per_rev, "qei_counts": self.qei.extended,
                 "rate_arcsec_s": round(self.rate_arcsec_s, 3), "window_ticks": self.window_ticks}
-
-    # ------------------------------------------------------------------ ISR (10 ms)
-    def isr_tick(self, now_us: int) -> None:
-        """Timer ISR: read the QEI, update the rate estimate, queue ``AXIS_VELOCITY``."""
-        self.qei.read_delta()
-        c = self.qei.extended
-        ring = self._ring
-        ring.append(c)
-        w, d = speed_window(ring, WINDOWS_TICKS, MIN_COUNTS)
-        if w == 0:
-            self.rate_marcsec_s, self.window_ticks = 0, 1
-        else:
-            self.rate_marcsec_s = int(round(d * self._marcsec_s_per_count_tick / w))
-            self.window_ticks = w
-        self.frames_queued += 1
-        self.queue(self._status_cob,
-                   proto.encode_axis_velocity(self.window_ticks, c, self.rate_marcsec_s))
-
-    # ------------------------------------------------------------------ CANopen objects (SDO)
-    def od_read(self, index: int, subindex: int):
-        """0x2300 encoder counts per axis revolution."""
-        if index == 0x2300:
-            return self.qei_counts_per_rev
-        return super().od_read(index, subindex)
