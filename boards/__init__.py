@@ -17,6 +17,7 @@ callables wired by ``host/network.py``.
 
 from __future__ import annotations
 
+import bus  # noqa: F401  (first: its SCHMIDT_FIL_NATIVE switch acts before boards.peripherals loads)
 from boards.axis_controller import AxisController, AxisMode, PRESET_RATES_ARCSEC_S
 from boards.control import DRIVE_LAWS, IncrementalPI
 from boards.firmware_base import Board

@@ -45,9 +45,10 @@ enters PRE-OPERATIONAL). An NMT reset node is ``reset("software")``.
 
 from __future__ import annotations
 
-from typing import Dict, List, Optional
+from typing import Any, ClassVar, Dict, List, Optional
 
 import can
+from mypy_extensions import mypyc_attr
 
 from bus import protocol as proto
 from bus import telemetry as tlm
@@ -93,7 +94,8 @@ FAULT_CLEAR_HOLD_US = 1_000_000
 _OPERATIONAL = "OPERATIONAL"
 
 
-class Firmware:
+@mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); boards subclass it
+class Firmware(Application):
     """What every emulated processor board shares, CANopen or not: the processor reset and the
     power switch (:class:`Board` and the USB gateway, :class:`boards.usb_gateway.UsbGateway`).
 
@@ -105,11 +107,19 @@ class Firmware:
     survive resets (the RCON register and a persistent boot counter).
     """
 
-    KIND = "firmware"
+    KIND: ClassVar[str] = "firmware"
     #: EDS of this board kind (a key of ``bus.eds.objects.KINDS``); "" = no CANopen device
-    CANOPEN_KIND = ""
+    CANOPEN_KIND: ClassVar[str] = ""
     #: the RS232 telemetry UART (:class:`boards.peripherals.Uart`), None without one
-    uart = None
+    uart: Optional[Uart] = None
+    # set by every subclass's constructor (declared here: the compiled class lays them out)
+    scheduler: Scheduler
+    node_id: int
+    name: str
+    can: CanController
+    reset_cause: str
+    reset_count: int
+    started: bool
 
     def _init_state(self) -> None:
         raise NotImplementedError
@@ -167,7 +177,8 @@ class Firmware:
         self.reset_cause = "power_on"
 
 
-class Board(Firmware, Application):
+@mypyc_attr(allow_interpreted_subclasses=True)
+class Board(Firmware):
     """Base class of the CANopen board firmwares.
 
     Parameters
@@ -192,12 +203,12 @@ class Board(Firmware, Application):
         :meth:`telemetry_sample` at this period.
     """
 
-    DEVICE_TYPE = 0x00
-    KIND = "board"
+    DEVICE_TYPE: ClassVar[int] = 0x00
+    KIND: ClassVar[str] = "board"
     #: EDS of this board kind (a key of ``bus.eds.objects.KINDS``)
-    CANOPEN_KIND = ""
+    CANOPEN_KIND: ClassVar[str] = ""
 
-    def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int, *,
+    def __init__(self, scheduler: Scheduler, bus: Any, node_id: int, *,
                  name: Optional[str] = None, background_period_us: int = 5_000,
                  rx_buffers: int = 2, serial_port=None,
                  telemetry_period_us: int = tlm.SAMPLE_PERIOD_US) -> None:
@@ -219,7 +230,7 @@ class Board(Firmware, Application):
                                        priority=PRIO_BACKGROUND, owner=f"{self.name}/background")
         self._timers: List[Timer] = [self._background_timer]
         #: the CANopen services (docs/canopen.md); frames leave through the CAN controller
-        self.device = CanopenDevice(scheduler, self.CANOPEN_KIND, self.node_id, self.can.send,
+        self.device = CanopenDevice(scheduler, self.CANOPEN_KIND, self.node_id, self.can.send,  # type: ignore[arg-type]
                                     self, name=self.name)
         # NMT, SDO, the RPDOs (commands, LIMIT, STOP_ALL) and every node's heartbeat (the
         # consumer times in 0x1016 may be changed by SDO; the device ignores the others)
@@ -228,7 +239,7 @@ class Board(Firmware, Application):
         self._firmware_ids: set = set()
         self._stop_all_id = proto.stop_all_cob_id()
         self._tpdo_ids = frozenset(self.device.tpdo_ids)
-        self.uart: Optional[Uart] = Uart(serial_port) if serial_port is not None else None
+        self.uart = Uart(serial_port) if serial_port is not None else None
         #: True when the firmware samples telemetry (a port is wired)
         self.telemetry_enabled = self.uart is not None
         self.telemetry_period_us = int(telemetry_period_us)
@@ -373,7 +384,7 @@ class Board(Firmware, Application):
         else:
             self.can.send(arbitration_id, data)
 
-    def queue(self, arbitration_id: int, data: bytes) -> None:
+    def queue(self, arbitration_id: Optional[int], data: Any) -> None:
         """Queue a frame for the background loop (what an ISR does instead of SPI transfers)."""
         self._tx_queue.append((arbitration_id, data))
 
@@ -416,9 +427,11 @@ class Board(Firmware, Application):
             self._tlm_n = 0
 
     def _write_telemetry(self) -> None:
-        t0_us, values = self._tlm_ready
+        ready, uart = self._tlm_ready, self.uart
+        assert ready is not None and uart is not None          # called only when a packet is ready
+        t0_us, values = ready
         self._tlm_ready = None
-        self.uart.write(tlm.encode_packet(self.DEVICE_TYPE, self.node_id, self.telemetry_seq, t0_us,
+        uart.write(tlm.encode_packet(self.DEVICE_TYPE, self.node_id, self.telemetry_seq, t0_us,
                                           values, self.telemetry_period_us))
         self.telemetry_seq = (self.telemetry_seq + 1) & 0xFFFF
 
@@ -467,7 +480,7 @@ class Board(Firmware, Application):
                 self.clear_fault(code)
 
     #: Hold time before a fault condition counts as cleared, µs (subclasses may override).
-    fault_clear_hold_us = FAULT_CLEAR_HOLD_US
+    fault_clear_hold_us: ClassVar[int] = FAULT_CLEAR_HOLD_US
 
     def refuse(self, reason: int, cmd: int) -> None:
         """Report a refused command: FAULT ``COMMAND_REFUSED``, detail = reason << 8 | cmd.

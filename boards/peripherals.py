@@ -16,11 +16,11 @@ from __future__ import annotations
 import math
 from math import floor as _floor, isfinite as _isfinite
 from collections import deque
-from typing import Callable, Deque, Dict, Optional
+from typing import Any, Callable, ClassVar, Deque, Dict, Optional
 
 import can
 
-from bus.scheduler import PRIO_BACKGROUND, PRIO_ISR, Scheduler
+from bus.scheduler import PRIO_BACKGROUND, PRIO_ISR, Event, Scheduler
 
 __all__ = [
     "Timer",
@@ -71,7 +71,7 @@ class Timer:
         self.isr = isr
         self.priority = priority
         self.owner = owner
-        self._event = None
+        self._event: Optional[Event] = None
         self._first_us = 0
         self._ticks_before = 0       # interrupts of earlier runs (since the last reset)
 
@@ -84,7 +84,9 @@ class Timer:
             return self._ticks_before
         # the scheduler sets ev.t_us to the next run before calling the ISR, so inside the ISR
         # of the k-th interrupt this is k, as a counter incremented before the ISR would be
-        return self._ticks_before + (ev.t_us - self._first_us) // ev.period_us
+        period_us = ev.period_us
+        assert period_us is not None          # a periodic event
+        return self._ticks_before + (ev.t_us - self._first_us) // period_us
 
     @property
     def running(self) -> bool:
@@ -203,7 +205,7 @@ class Qei:
         Port returning the cumulative encoder count (int, signed, counts).
     """
 
-    MODULUS = 1 << 16
+    MODULUS: ClassVar[int] = 1 << 16
 
     def __init__(self, read_counts: Callable[[], int]) -> None:
         self.read_counts = read_counts
@@ -346,7 +348,7 @@ class CanController:
         the order frames were sent in: a FIFO).
     """
 
-    def __init__(self, bus: can.BusABC, rx_buffers: int = 2, tx_buffers: int = TX_BUFFERS) -> None:
+    def __init__(self, bus: Any, rx_buffers: int = 2, tx_buffers: int = TX_BUFFERS) -> None:
         self.bus = bus
         self.rx_buffers = int(rx_buffers)
         self.accept: Callable[[int], bool] = lambda arbitration_id: True
@@ -613,7 +615,7 @@ class StepDir:
         Half-step mode (True, 0.9° per step on the KM062, §3.2).
     """
 
-    POWER_STATES = ("on", "hold", "free")
+    POWER_STATES: ClassVar[tuple] = ("on", "hold", "free")
 
     def __init__(self, on_step: Callable[[int], None],
                  on_power: Optional[Callable[[str], None]] = None, half_step: bool = True) -> None:

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from typing import Callable, Optional
+from typing import Callable, ClassVar, Optional
 
 import can
 
@@ -92,10 +92,10 @@ class QeiSpeedBoard(Board):
         These boards have no RS232 telemetry; a port raises ValueError.
     """
 
-    WINDOWS_TICKS: tuple = ()
-    MIN_COUNTS = 1
-    MAX_WINDOW_TICKS = 1
-    NO_RS232 = "this board has no RS232 telemetry"
+    WINDOWS_TICKS: ClassVar[tuple] = ()
+    MIN_COUNTS: ClassVar[int] = 1
+    MAX_WINDOW_TICKS: ClassVar[int] = 1
+    NO_RS232: ClassVar[str] = "this board has no RS232 telemetry"
 
     def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int, *,
                  read_counts: Callable[[], int], counts_per_rev: int, period_us: int,
@@ -180,13 +180,13 @@ class Tachometer(QeiSpeedBoard):
         ISR and ``TACH_STATUS`` period, µs (5000).
     """
 
-    DEVICE_TYPE = int(proto.DeviceType.TACHOMETER)
-    KIND = "tachometer"
-    CANOPEN_KIND = "tachometer"
-    WINDOWS_TICKS = WINDOWS_TICKS
-    MIN_COUNTS = MIN_COUNTS
-    MAX_WINDOW_TICKS = proto.TACH_MAX_WINDOW_TICKS
-    NO_RS232 = "the tachometer has no RS232 telemetry (paper §3.4: PI, position and focus boards)"
+    DEVICE_TYPE: ClassVar[int] = int(proto.DeviceType.TACHOMETER)
+    KIND: ClassVar[str] = "tachometer"
+    CANOPEN_KIND: ClassVar[str] = "tachometer"
+    WINDOWS_TICKS: ClassVar[tuple] = WINDOWS_TICKS
+    MIN_COUNTS: ClassVar[int] = MIN_COUNTS
+    MAX_WINDOW_TICKS: ClassVar[int] = proto.TACH_MAX_WINDOW_TICKS
+    NO_RS232: ClassVar[str] = "the tachometer has no RS232 telemetry (paper §3.4: PI, position and focus boards)"
 
     def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int = 6, *,
                  read_motor_counts: Callable[[], int], counts_per_rev: int,

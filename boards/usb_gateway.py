@@ -39,7 +39,7 @@ receive path; the report layout carries 11-bit data frames of 0..8 bytes only).
 from __future__ import annotations
 
 from collections import deque
-from typing import Deque, Optional
+from typing import ClassVar, Deque, Optional
 
 import can
 
@@ -87,7 +87,7 @@ class UsbGateway(Firmware):
         telemetry (ValueError otherwise).
     """
 
-    KIND = "usb-gateway"
+    KIND: ClassVar[str] = "usb-gateway"
 
     def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int = proto.NodeId.HOST, *,
                  name: str = "usb-gateway", rx_queue_frames: int = RX_QUEUE_FRAMES,
@@ -150,7 +150,7 @@ class UsbGateway(Firmware):
         self.in_reports = 0
         self.out_reports = 0
         self.out_malformed = 0
-        self.last_malformed = R.MalformedReason.NONE
+        self.last_malformed: int = R.MalformedReason.NONE
         self.queue_high_water = len(self._queue)
 
     @property

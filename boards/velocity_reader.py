@@ -28,7 +28,7 @@ the 2°/s slew uses 20 ms (12 544 counts).
 
 from __future__ import annotations
 
-from typing import Callable, Optional
+from typing import Callable, ClassVar, Optional
 
 import can
 
@@ -67,13 +67,13 @@ class AxisVelocityReader(QeiSpeedBoard):
         a port raises ValueError.
     """
 
-    DEVICE_TYPE = int(proto.DeviceType.AXIS_VELOCITY)
-    KIND = "velocity_reader"
-    CANOPEN_KIND = "velocity_reader"
-    WINDOWS_TICKS = WINDOWS_TICKS
-    MIN_COUNTS = MIN_COUNTS
-    MAX_WINDOW_TICKS = proto.VEL_MAX_WINDOW_TICKS
-    NO_RS232 = "the axis velocity reader has no RS232 telemetry (paper §3.4: PI, position and focus boards)"
+    DEVICE_TYPE: ClassVar[int] = int(proto.DeviceType.AXIS_VELOCITY)
+    KIND: ClassVar[str] = "velocity_reader"
+    CANOPEN_KIND: ClassVar[str] = "velocity_reader"
+    WINDOWS_TICKS: ClassVar[tuple] = WINDOWS_TICKS
+    MIN_COUNTS: ClassVar[int] = MIN_COUNTS
+    MAX_WINDOW_TICKS: ClassVar[int] = proto.VEL_MAX_WINDOW_TICKS
+    NO_RS232: ClassVar[str] = "the axis velocity reader has no RS232 telemetry (paper §3.4: PI, position and focus boards)"
 
     def __init__(self, scheduler: Scheduler, bus: can.BusABC, node_id: int = int(proto.NodeId.VEL_RA), *,
                  read_qei_counts: Callable[[], int], qei_counts_per_rev: int,

@@ -7,6 +7,11 @@ the package is not installed (installed, the ``can.interface`` entry point does 
 
 from __future__ import annotations
 
+from bus._native import install_source_finder
+
+install_source_finder()          # SCHMIDT_FIL_NATIVE=0: the .py source, not the compiled hot path
+
+# ruff: noqa: E402
 from bus.errors import (  # noqa: F401  (re-exported)
     BusError,
     ConfigurationError,

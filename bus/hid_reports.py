@@ -174,7 +174,7 @@ def encode_report(kind: int, frames: Sequence, flags: int = 0, seq: int = 0) -> 
         _fail(name, "kind", "0x01 or 0x81", kind, MalformedReason.KIND)
     if len(frames) > FRAMES_PER_REPORT:
         _fail(name, "count", f"0..{FRAMES_PER_REPORT}", len(frames), MalformedReason.COUNT)
-    vals = [kind, len(frames), flags & 0xFF, seq & 0xFF]
+    vals: list = [kind, len(frames), flags & 0xFF, seq & 0xFF]
     for f in frames:
         aid, data = int(f[0]), bytes(f[1])
         if not 0 <= aid <= 0x7FF:

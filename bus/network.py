@@ -49,10 +49,13 @@ closes the old one (its buses are detached). :meth:`CanNetwork.close` unregister
 
 from __future__ import annotations
 
+import functools
 import heapq
 import random
 from collections import deque
 from functools import lru_cache
+
+from typing import Any
 
 import can
 
@@ -140,8 +143,8 @@ def _make_stuff_table() -> bytes:
 _STUFF_TABLE = _make_stuff_table()
 
 # 16-bit versions (composed from the 8-bit tables, built on first use: ~0.1 s, 640 kB)
-_CRC16 = None
-_STUFF16 = None
+_CRC16: Any = None
+_STUFF16: Any = None
 
 
 def _build_wide_tables() -> None:
@@ -347,11 +350,11 @@ class TxBuffers:
         #: highest rank is the buffer the datasheet rule picks
         self.buf: list = [None] * self.n
         self.fifo: deque = deque()           # the firmware's software queue
-        self._cand = None                    # buffer number of the frame offered next
-        self._sending = None                 # buffer number whose frame is on the wire
+        self._cand: Any = None               # buffer number of the frame offered next
+        self._sending: Any = None                 # buffer number whose frame is on the wire
         self._count = 0                      # frames waiting: buffered (not on the wire) + FIFO
         #: the frame offered next (``self[0]``), None when nothing waits in a buffer
-        self.head = None
+        self.head: Any = None
         self._txp: dict = {}                 # identifier -> TXP, asked once per identifier
 
     def _rank(self, arbitration_id: int, i: int) -> int:
@@ -555,6 +558,7 @@ class _InjectedNode:
 
     def __init__(self, name: str) -> None:
         self.name = name
+        self._babble: Any = None          # (identifier, data, end_us), set by babble()
 
     def _accepts(self, arbitration_id: int) -> bool:
         return False
@@ -596,8 +600,8 @@ class CanNetwork:
         self.channel = channel
         self.bitrate = bitrate
         self._buses: list = []
-        self._queues: dict[int, deque] = {}        # id(bus) -> deque of _Pending
-        self._active: dict[int, deque] = {}        # the non-empty ones (what arbitration scans)
+        self._queues: dict[int, Any] = {}        # id(bus) -> deque of _Pending
+        self._active: dict[int, Any] = {}        # the non-empty ones (what arbitration scans)
         #: fault-free path: a heap of (key, pending) holding the head frame of every non-empty
         #: queue, so arbitration costs O(log nodes) however many nodes have a frame waiting
         #: (entries of detached buses are skipped when popped). Once a fault is injected the
@@ -607,7 +611,7 @@ class CanNetwork:
         self._busy = False
         self._arb_scheduled = False
         self._npending = 0
-        self._current: _Pending | None = None
+        self._current: Any = None
         #: identifier -> ((bus, enqueue), ...): the attached buses whose acceptance filters pass
         #: that identifier, in attach order, built on first use and dropped whenever a bus is
         #: attached, detached or changes its filters. Delivery then costs per *accepting*
@@ -1103,7 +1107,7 @@ class CanNetwork:
         es._rec_busy0 = self.busy_us
         es._rec_frames0 = self.frames
         self.scheduler.call_at(t_us + self._bit_us(RECOVERY_OCCURRENCES * 11),
-                               lambda now, es=es: self._check_recovery(es, now), PRIO_CAN,
+                               functools.partial(self._check_recovery, es), PRIO_CAN,
                                owner=self._owner)
 
     def _check_recovery(self, es: NodeErrorState, now_us: int) -> None:
@@ -1119,7 +1123,7 @@ class CanNetwork:
             es.recovery_requested = False
             return
         self.scheduler.call_at(now_us + self._bit_us((RECOVERY_OCCURRENCES - occ) * 11),
-                               lambda now, es=es: self._check_recovery(es, now), PRIO_CAN,
+                               functools.partial(self._check_recovery, es), PRIO_CAN,
                                owner=self._owner)
 
     def babble(self, arbitration_id: int, data: bytes = bytes(8), *, name: str = "babbler",
@@ -1135,7 +1139,7 @@ class CanNetwork:
         self._babblers[name] = node
         self._enable_faults()
         t0 = self.scheduler.now_us if start_us is None else int(start_us)
-        self.scheduler.call_at(t0, lambda now, n=node: self._refill_babbler(n, now), PRIO_CAN,
+        self.scheduler.call_at(t0, functools.partial(self._refill_babbler, node), PRIO_CAN,
                                owner=self._owner)
 
     def _refill_babbler(self, node, now_us: int) -> None:

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import heapq
 from operator import index as _index
-from typing import Callable
+from typing import Callable, Optional
 
 from bus.errors import SimulationError
 
@@ -217,9 +217,11 @@ class Scheduler:
         self._seq += 1
         heapq.heappush(self._heap, (t_us, ev.priority, self._seq, ev))
 
-    def cancel(self, event: Event) -> None:
-        """Cancel ``event`` (one-shot or periodic). Cancelling twice or after it ran is a no-op."""
-        event.cancelled = True
+    def cancel(self, event: Optional[Event]) -> None:
+        """Cancel ``event`` (one-shot or periodic). Cancelling twice, after it ran, or ``None``
+        is a no-op."""
+        if event is not None:
+            event.cancelled = True
 
     def _push(self, ev: Event) -> None:
         self._seq += 1
@@ -286,7 +288,7 @@ class Scheduler:
                 except SimulationError:
                     raise
                 except Exception as exc:
-                    raise self._wrap(ev, exc) from exc
+                    raise self._wrap(ev, exc)
             self.now_us = t_us
         finally:
             self._running = False
@@ -322,13 +324,18 @@ class Scheduler:
         except SimulationError:
             raise
         except Exception as exc:
-            raise self._wrap(ev, exc) from exc
+            raise self._wrap(ev, exc)
         finally:
             self._running = False
         return True
 
     def _wrap(self, ev: Event, exc: Exception) -> SimulationError:
         owner = ev.describe_owner()
-        return SimulationError(
+        err = SimulationError(
             f"{owner} raised {type(exc).__name__}: {exc} at t = {self.now_us} µs",
             owner, self.now_us)
+        # ``raise err from exc``, spelled out: compiled by mypyc, ``raise ... from`` does not set
+        # the cause (tests/test_bus_scheduler.py checks it)
+        err.__cause__ = exc
+        err.__suppress_context__ = True
+        return err

@@ -30,7 +30,7 @@ from __future__ import annotations
 from collections import deque
 from typing import Callable, Deque, Optional, Tuple
 
-from bus.scheduler import PRIO_HOST, Scheduler
+from bus.scheduler import PRIO_HOST, Event, Scheduler
 
 __all__ = ["UsbHostPort", "FRAME_PERIOD_US", "HIDRAW_BUFFER_REPORTS", "PRIO_USB"]
 
@@ -98,7 +98,7 @@ class UsbHostPort:
             device.on_wake = self._wake
         self._last_us: Optional[int] = None       # last frame counted while the event sleeps
         start = (scheduler.now_us // FRAME_PERIOD_US + 1) * FRAME_PERIOD_US
-        self._event = scheduler.call_every(FRAME_PERIOD_US, self._frame, start_us=start,
+        self._event: Optional[Event] = scheduler.call_every(FRAME_PERIOD_US, self._frame, start_us=start,
                                            priority=PRIO_USB, owner=name)
 
     def open(self) -> None:

@@ -13,6 +13,7 @@ from __future__ import annotations
 from typing import Optional, Union
 
 from canopen.sdo import SdoAbortedError
+from mypy_extensions import mypyc_attr
 
 __all__ = ["Application", "ObjectRefused", "ABORT_VALUE_INVALID", "ABORT_VALUE_TOO_HIGH",
            "ABORT_VALUE_TOO_LOW", "ABORT_MAX_LESS_THAN_MIN", "ABORT_DEVICE_STATE",
@@ -50,6 +51,7 @@ class ObjectRefused(SdoAbortedError):
         return f"{base}: {self.reason}" if self.reason else base
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); boards subclass it
 class Application:
     """The firmware side of the service interface (override what the board has; all optional).
 

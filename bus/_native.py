@@ -1,0 +1,76 @@
+"""Which modules run compiled (mypyc), and the run-time switch back to their Python source.
+
+The hot path of the emulator (docs/performance.md, "Compiled hot path") is compiled by mypyc at
+install time (``setup.py`` reads :data:`NATIVE_MODULES` from this file). The ``.py`` source stays
+the reference: a compiled module and its source give the same results (the test suite runs on
+the compiled build in CI, and ``tests/test_native.py`` runs a scenario both ways and compares
+the logs).
+
+``SCHMIDT_FIL_NATIVE=0`` in the environment makes Python import the ``.py`` source of these
+modules instead of their compiled extensions, for debugging (tracebacks with source lines,
+pdb) or to measure what the compilation gives, without reinstalling. The switch acts at import,
+so it must be set before ``bus`` or ``boards`` is first imported.
+
+This file must stay importable on its own (``setup.py`` runs it before the package's
+dependencies are installed): standard library only.
+"""
+
+from __future__ import annotations
+
+import importlib.machinery
+import importlib.util
+import os
+import sys
+
+__all__ = ["NATIVE_MODULES", "native_modules", "install_source_finder"]
+
+#: Dotted names of the modules compiled at install (on the per-frame path of every simulated
+#: second: measured with the per-event profile of docs/performance.md).
+NATIVE_MODULES = (
+    "bus.scheduler",
+    "bus.network",
+    "bus.usb_link",
+    "bus.hid_reports",
+    "boards.peripherals",
+    "boards.services.application",
+    "boards.firmware_base",
+    "boards.usb_gateway",
+    "boards.tachometer",
+    "boards.velocity_reader",
+)
+
+
+def native_modules() -> list:
+    """Names of the :data:`NATIVE_MODULES` imported now from a compiled extension (list of str)."""
+    out = []
+    for name in NATIVE_MODULES:
+        mod = sys.modules.get(name)
+        if mod is not None and not str(getattr(mod, "__file__", "")).endswith(".py"):
+            out.append(name)
+    return out
+
+
+class _SourceFinder:
+    """Meta path finder: the ``.py`` source of a :data:`NATIVE_MODULES` module, never its
+    compiled extension (installed only when ``SCHMIDT_FIL_NATIVE=0``)."""
+
+    @classmethod
+    def find_spec(cls, fullname, path=None, target=None):
+        if fullname not in NATIVE_MODULES or not path:
+            return None
+        leaf = fullname.rpartition(".")[2] + ".py"
+        for entry in path:
+            candidate = os.path.join(entry, leaf)
+            if os.path.isfile(candidate):
+                loader = importlib.machinery.SourceFileLoader(fullname, candidate)
+                return importlib.util.spec_from_file_location(fullname, candidate, loader=loader)
+        return None
+
+
+def install_source_finder() -> bool:
+    """Install the source-only finder if ``SCHMIDT_FIL_NATIVE=0`` (idempotent); True if active."""
+    if os.environ.get("SCHMIDT_FIL_NATIVE", "1") != "0":
+        return False
+    if not any(f is _SourceFinder for f in sys.meta_path):
+        sys.meta_path.insert(0, _SourceFinder)
+    return True
