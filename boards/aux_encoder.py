@@ -54,6 +54,7 @@ from bus import protocol as proto
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_ISR, Scheduler
 from bus.units import ARCSEC_PER_REV
+from mypy_extensions import mypyc_attr
 
 __all__ = ["AuxEncoder"]
 
@@ -65,6 +66,7 @@ _POS_BAD = int(proto.PositionFlags.CRC_ERROR | proto.PositionFlags.INVALID)
 _TURNS_UNKNOWN = int(proto.AuxFlags.TURNS_UNKNOWN)
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); may be subclassed
 class AuxEncoder(Board):
     """Auxiliary absolute encoder firmware (PIC18F4480, SSI).
 

@@ -27,7 +27,7 @@ See :data:`PRESET_RATES_ARCSEC_S`. Only SLEW and TRACK come from the paper.
 
 from __future__ import annotations
 
-from typing import Callable, Optional
+from typing import Callable, ClassVar, Optional
 
 import can
 
@@ -44,6 +44,7 @@ from boards.services.application import ABORT_VALUE_TOO_HIGH, ABORT_VALUE_TOO_LO
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_ISR, Scheduler
 from bus.units import ARCSEC_PER_RAD, ARCSEC_PER_REV, Q15_FULL_SCALE, check_counter_fraction, duty_to_q15, q15_to_duty
+from mypy_extensions import mypyc_attr
 
 __all__ = ["AxisController", "AxisMode", "PRESET_RATES_ARCSEC_S", "QEI_COUNTS_PER_REV",
            "DEFAULT_KP", "DEFAULT_KI"]
@@ -53,9 +54,18 @@ class AxisMode:
     """Axis modes (byte 1 of AXIS_STATUS) and AXIS_COMMAND command codes."""
 
     # plain ints for the ISR's speed, taken from the protocol's enums (one source of truth)
-    STOP, SLEW, SET, GUIDE, FINE, TRACK, VELOCITY, OPEN_LOOP, LIMIT_STOP = (int(m) for m in proto.AxisMode)
-    SET_KP, SET_KI = int(proto.AxisCommand.SET_KP), int(proto.AxisCommand.SET_KI)  # commands, not modes
-    NAMES = tuple(m.name for m in proto.AxisMode)
+    STOP: ClassVar[int] = int(proto.AxisMode.STOP)
+    SLEW: ClassVar[int] = int(proto.AxisMode.SLEW)
+    SET: ClassVar[int] = int(proto.AxisMode.SET)
+    GUIDE: ClassVar[int] = int(proto.AxisMode.GUIDE)
+    FINE: ClassVar[int] = int(proto.AxisMode.FINE)
+    TRACK: ClassVar[int] = int(proto.AxisMode.TRACK)
+    VELOCITY: ClassVar[int] = int(proto.AxisMode.VELOCITY)
+    OPEN_LOOP: ClassVar[int] = int(proto.AxisMode.OPEN_LOOP)
+    LIMIT_STOP: ClassVar[int] = int(proto.AxisMode.LIMIT_STOP)
+    SET_KP: ClassVar[int] = int(proto.AxisCommand.SET_KP)  # commands, not modes
+    SET_KI: ClassVar[int] = int(proto.AxisCommand.SET_KI)
+    NAMES: ClassVar[tuple] = tuple(m.name for m in proto.AxisMode)
 
 
 #: Incremental-encoder counts per axis revolution: 4.608e6 counts/rev (Gurley 8x60, §3.2)
@@ -108,6 +118,7 @@ LIMIT_LOW, LIMIT_HIGH, LIMIT_INVALID = (
                      proto.LimitFlags.POSITION_INVALID))
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); may be subclassed
 class AxisController(Board):
     """dsPIC30F3011 axis controller firmware.
 
@@ -510,10 +521,6 @@ class AxisController(Board):
             self._host_alive()
         else:
             super().handle_frame(arbitration_id, data)
-
-    def _handle_broadcast(self, b) -> None:
-        self._host_alive()
-        super()._handle_broadcast(b)
 
     def _host_alive(self) -> None:
         self._host_us = self.scheduler.now_us

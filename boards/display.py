@@ -33,6 +33,7 @@ from boards.peripherals import CharacterDisplay, Timer
 from bus import protocol as proto
 from bus.scheduler import PRIO_ISR, Scheduler
 from bus.units import ARCSEC_PER_REV
+from mypy_extensions import mypyc_attr
 
 __all__ = ["DisplayUnit", "format_hms", "format_dms", "STALE_TEXT"]
 
@@ -64,6 +65,7 @@ def _signed(counts: int) -> int:
     return counts - _POS_REV if counts >= _POS_REV // 2 else counts
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); may be subclassed
 class DisplayUnit(Board):
     """Digital display unit firmware.
 

@@ -52,6 +52,7 @@ from boards.safety import REFUSE_AZIMUTH
 from boards.services import ObjectRefused
 from bus import protocol as proto
 from bus.scheduler import PRIO_ISR, Scheduler
+from mypy_extensions import mypyc_attr
 
 __all__ = ["DomeController", "slit_azimuth_deg", "ARRIVE_TOL_DEG", "PROFILE_DECEL_FRACTION"]
 
@@ -96,6 +97,7 @@ def _wrap180(x: float) -> float:
     return y
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); may be subclassed
 class DomeController(Board):
     """Dome azimuth controller firmware.
 
@@ -186,7 +188,7 @@ class DomeController(Board):
         self.position_stale = False
         self.azimuth_deg = 0.0
         self.target_deg = 0.0
-        self._pos = [None, None]           # (pos_counts, t_us) of RA, DEC
+        self._pos: list = [None, None]     # (pos_counts, t_us) of RA, DEC
         self._passes = 0
         self.position_frames = 0
         self.moves = 0
@@ -200,7 +202,7 @@ class DomeController(Board):
     def telescope_ha_dec_deg(self, now_us: int) -> Optional[tuple]:
         """(hour angle, declination) in deg from the last POSITION frames, or None if either is
         missing or older than ``position_timeout_us``."""
-        out = []
+        out: list = []
         for p in self._pos:
             if p is None or now_us - p[1] > self.position_timeout_us:
                 return None

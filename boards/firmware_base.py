@@ -479,8 +479,9 @@ class Board(Firmware):
             if now_us - seen >= self.fault_clear_hold_us:
                 self.clear_fault(code)
 
-    #: Hold time before a fault condition counts as cleared, µs (subclasses may override).
-    fault_clear_hold_us: ClassVar[int] = FAULT_CLEAR_HOLD_US
+    #: Hold time before a fault condition counts as cleared, µs (a subclass's constructor may
+    #: set another after ``Board.__init__``; the axis controller's comes from its safety limits).
+    fault_clear_hold_us: int = FAULT_CLEAR_HOLD_US
 
     def refuse(self, reason: int, cmd: int) -> None:
         """Report a refused command: FAULT ``COMMAND_REFUSED``, detail = reason << 8 | cmd.

@@ -54,6 +54,7 @@ from boards.peripherals import Adc, Qei, StepDir, Timer
 from bus import protocol as proto
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_ISR, Scheduler
+from mypy_extensions import mypyc_attr
 
 __all__ = ["FocusController", "STEP_RATE_HZ", "TRAVEL_HALFSTEPS", "HALFSTEP_UM",
            "HALFSTEPS_PER_REV", "ENCODER_COUNTS_PER_REV"]
@@ -73,6 +74,7 @@ F_MOVING, F_HOLDING, F_INDEX, F_POWER_OFF, F_STEP_LOSS = (
 CMD_STOP, CMD_STEP, CMD_MOVE_TO, CMD_HOLD, CMD_FREE = 0, 1, 2, 3, 4
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); may be subclassed
 class FocusController(Board):
     """PIC18F4431 focus controller firmware.
 
@@ -207,7 +209,9 @@ class FocusController(Board):
         record a telemetry sample. Every ``status_period_us`` (250 ms): sample the LVDT, send
         FOCUS_STATUS."""
         self._loop_passes += 1
-        if self._step_fault_pending and now_us - self._step_fault_us >= STEP_LOSS_FAULT_MIN_INTERVAL_US:
+        fault_us = self._step_fault_us
+        if (self._step_fault_pending and fault_us is not None
+                and now_us - fault_us >= STEP_LOSS_FAULT_MIN_INTERVAL_US):
             self._send_step_fault(now_us)
         if self._loop_passes & 1 == 0:
             if self.qei is not None and (self._stepped or self.telemetry_enabled):
@@ -233,8 +237,10 @@ class FocusController(Board):
     def _check_steps(self, now_us: int) -> None:
         """Read the QEI and compare it with the half-step counter (see module doc)."""
         self._stepped = False
-        self.qei.read_delta()
-        dev = math.floor(self.qei.extended * self.halfsteps_per_count - self.pos_halfsteps + 0.5)
+        qei = self.qei
+        assert qei is not None                     # called only with an encoder wired
+        qei.read_delta()
+        dev = math.floor(qei.extended * self.halfsteps_per_count - self.pos_halfsteps + 0.5)
         if dev == self.step_deviation:
             return
         self.missed_steps += abs(dev - self.step_deviation)

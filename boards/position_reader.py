@@ -45,6 +45,7 @@ from boards.services.application import ABORT_MAX_LESS_THAN_MIN
 from boards.safety import DEFAULT_SAFETY, SafetyLimits
 from bus.scheduler import PRIO_ISR, Scheduler
 from bus.units import ARCSEC_PER_REV
+from mypy_extensions import mypyc_attr
 
 __all__ = ["PositionReader", "DEFAULT_LIMITS_DEG", "POS_LOW", "POS_HIGH", "POS_CRC", "POS_INVALID"]
 
@@ -61,6 +62,7 @@ LIMIT_LOW_NEAR, LIMIT_HIGH_NEAR = 0x08, 0x10
 CRC_FAULT_MIN_INTERVAL_US = 1_000_000
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); may be subclassed
 class PositionReader(Board):
     """PIC18F4480 EnDat position reader firmware.
 
@@ -211,7 +213,9 @@ class PositionReader(Board):
         if r.crc_ok:
             self.alarm = bool(r.f1 or r.f2)
             if not self.alarm:
-                self.pos_counts = (r.position + self.offset_counts) % COUNTS_PER_REV
+                position = r.position
+                assert position is not None            # a reading with a valid CRC has one
+                self.pos_counts = (position + self.offset_counts) % COUNTS_PER_REV
                 prev = self._prev_counts
                 if prev is not None:
                     d = (self.pos_counts - prev + COUNTS_PER_REV // 2) % COUNTS_PER_REV - COUNTS_PER_REV // 2

@@ -40,6 +40,7 @@ from boards.firmware_base import Board
 from boards.peripherals import Qei, Timer
 from bus import protocol as proto
 from bus.scheduler import PRIO_ISR, Scheduler
+from mypy_extensions import mypyc_attr
 
 __all__ = ["Tachometer", "QeiSpeedBoard", "WINDOWS_TICKS", "MIN_COUNTS", "speed_window"]
 
@@ -69,6 +70,7 @@ def speed_window(ring, windows_ticks, min_counts: int) -> tuple[int, int]:
     return w, d
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); may be subclassed
 class QeiSpeedBoard(Board):
     """A board that counts one incremental encoder in its QEI and, every ISR tick, queues its
     TPDO1 with the adaptive-window speed (:func:`speed_window`): the common firmware of the
@@ -162,6 +164,7 @@ class QeiSpeedBoard(Board):
         return super().od_read(index, subindex)
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); may be subclassed
 class Tachometer(QeiSpeedBoard):
     """CP-850 motor tachometer firmware (PIC18F4431 QEI).
 

@@ -49,6 +49,7 @@ from boards.usb_hid import UsbHidInterface
 from bus import hid_reports as R
 from bus import protocol as proto
 from bus.scheduler import Scheduler
+from mypy_extensions import mypyc_attr
 
 __all__ = ["UsbGateway", "RX_QUEUE_FRAMES"]
 
@@ -58,6 +59,7 @@ RX_QUEUE_FRAMES = 32
 _U32 = (1 << 32) - 1
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); may be subclassed
 class UsbGateway(Firmware):
     """The USB-HID CAN gateway board (reset and power switch: :class:`boards.firmware_base.Firmware`).
 

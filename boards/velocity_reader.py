@@ -36,6 +36,7 @@ from boards.tachometer import QeiSpeedBoard
 from bus import protocol as proto
 from bus.scheduler import Scheduler
 from bus.units import ARCSEC_PER_REV
+from mypy_extensions import mypyc_attr
 
 __all__ = ["AxisVelocityReader", "WINDOWS_TICKS", "MIN_COUNTS"]
 
@@ -45,6 +46,7 @@ WINDOWS_TICKS = (2, 5, 10, 20, 50, proto.VEL_MAX_WINDOW_TICKS)
 MIN_COUNTS = 256
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); may be subclassed
 class AxisVelocityReader(QeiSpeedBoard):
     """Friction-roller encoder velocity node (PIC18F4431 QEI).
 

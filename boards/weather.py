@@ -32,12 +32,14 @@ from boards.firmware_base import Board
 from boards.peripherals import Adc, DigitalInput, Timer
 from bus import protocol as proto
 from bus.scheduler import PRIO_ISR, Scheduler
+from mypy_extensions import mypyc_attr
 
 __all__ = ["WeatherStation"]
 
 _VREF_V = 5.0
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); may be subclassed
 class WeatherStation(Board):
     """Weather station firmware.
 

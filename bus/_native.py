@@ -37,6 +37,20 @@ NATIVE_MODULES = (
     "boards.usb_gateway",
     "boards.tachometer",
     "boards.velocity_reader",
+    "boards.control",
+    "boards.safety",
+    "boards.endat",
+    "boards.axis_controller",
+    "boards.position_reader",
+    "boards.aux_encoder",
+    "boards.focus_controller",
+    "boards.display",
+    "boards.dome",
+    "boards.weather",
+    "host.client",
+    "host.hid_device",
+    "host.gateway_bus",
+    "bus.simbus",
 )
 
 

@@ -30,7 +30,7 @@ from typing import Callable
 import can
 
 from bus.errors import BusError
-from bus.network import CanNetwork, get_network
+from bus.network import CanNetwork, NodeErrorState, get_network
 
 __all__ = ["SimBus"]
 
@@ -195,7 +195,7 @@ class SimBus(can.BusABC):
 
     # -- fault confinement ------------------------------------------------------------------
     @property
-    def error_state(self):
+    def error_state(self) -> "NodeErrorState":
         """This node's :class:`~bus.network.NodeErrorState` (TEC, REC, state, counters)."""
         return self.network.error_state(self)
 

@@ -22,9 +22,10 @@ watchdog, object 0x1016).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Any, Callable, Mapping
 
 import can
+from mypy_extensions import mypyc_attr
 
 from bus import protocol as P
 from bus.errors import MalformedFrame
@@ -43,16 +44,18 @@ __all__ = ["HostClient", "Health", "AxisState", "NODE_NAMES", "AXIS_NODES"]
 AXIS_NODES = nodes_of_kind("axis_controller")       #: {"ra": 1, "dec": 2}
 READER_NODES = nodes_of_kind("position_reader")    #: {"ra": 3, "dec": 4}
 _AXIS_OF_NODE = {node: axis for axis, node in AXIS_NODES.items()}
+#: ``bus.protocol.node_of`` (None only for broadcasts, which reach no handler that uses it)
+_node_of: Callable[[int], Any] = P.node_of
 #: issue 12: tachometer node -> (axis, motor); auxiliary-encoder node -> axis (from the registry)
-TACH_MOTOR_OF_NODE = {int(i.node_id): (i.axis, i.motor) for s in REGISTRY if s.kind == "tachometer"
+TACH_MOTOR_OF_NODE: dict[int, Any] = {int(i.node_id): (i.axis, i.motor) for s in REGISTRY if s.kind == "tachometer"
                       for i in s.instances}
-AUX_AXIS_OF_NODE = {int(i.node_id): i.axis for s in REGISTRY if s.kind == "aux_encoder" for i in s.instances}
+AUX_AXIS_OF_NODE: dict[int, Any] = {int(i.node_id): i.axis for s in REGISTRY if s.kind == "aux_encoder" for i in s.instances}
 #: issue 12: axis velocity reader node -> axis
-VEL_AXIS_OF_NODE = {int(i.node_id): i.axis for s in REGISTRY if s.kind == "velocity_reader" for i in s.instances}
+VEL_AXIS_OF_NODE: dict[int, Any] = {int(i.node_id): i.axis for s in REGISTRY if s.kind == "velocity_reader" for i in s.instances}
 _READER_AXIS = {node: axis for axis, node in READER_NODES.items()}
 #: EDS (board kind) of each CANopen node: what the host's SDO client reads it with (the USB
 #: gateway, the host's own node, has none).
-_EDS_OF_NODE = {int(i.node_id): s.firmware.CANOPEN_KIND for s in REGISTRY if s.canopen for i in s.instances}
+_EDS_OF_NODE: dict[int, Any] = {int(i.node_id): getattr(s.firmware, "CANOPEN_KIND") for s in REGISTRY if s.canopen for i in s.instances}
 
 
 def _node_name(node: int) -> str:
@@ -137,7 +140,7 @@ class DisplayState:
 WEATHER_UNSAFE = int(P.WeatherFlags.HIGH_WIND | P.WeatherFlags.RAIN)
 def weather_flag_names(flags: int) -> str:
     """``"high_wind,rain"``, ``"high_wind"``... or ``"none"`` for WEATHER_STATUS flags."""
-    names = [f.name.lower() for f in P.WeatherFlags if flags & f]
+    names = [str(f.name).lower() for f in P.WeatherFlags if flags & f]
     return ",".join(names) if names else "none"
 
 
@@ -208,6 +211,7 @@ def _signed_arcsec(pos_counts: int) -> float:
     return c * _ARCSEC_PER_POS_COUNT
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); BusMonitor subclasses it
 @dataclass
 class HostClient:
     """Operator client over a python-can bus in simulated time.
@@ -236,15 +240,15 @@ class HostClient:
         window are wall-clock time (a node outside this process answers in wall-clock time).
     """
 
-    bus: can.BusABC
+    bus: Any                     # a can.BusABC (duck-typed: any python-can bus)
     scheduler: Scheduler
     expected_nodes: tuple = network_nodes("basic")
-    preset_rates_arcsec_s: dict = field(default_factory=dict)
+    preset_rates_arcsec_s: Mapping = field(default_factory=dict)
     open_loop_duty: Callable[[float, str], float] | None = None
     adc_to_current_a: Callable[[int], float] = lambda c: c * (5.0 / 1023) / 0.1
-    logs: object = None
+    logs: Any = None
     advance: Callable[[int], None] | None = None
-    arcsec_per_count: dict = field(default_factory=dict)
+    arcsec_per_count: Mapping = field(default_factory=dict)
 
     #: The assembly (:func:`host.network.build_network`) gives this host the bus of the USB-HID
     #: gateway (:class:`host.gateway_bus.HidGatewayBus`), as the paper's PC had (§3.4).
@@ -285,17 +289,17 @@ class HostClient:
         self.aux: dict[str, AuxState] = {}
         self.tach_counts_per_rev: dict[int, int] = {}
         self.aux_arcsec_per_count: dict[int, float] = {}
-        self._main_prev: dict[str, tuple[int, float]] = {}    # axis -> (t_us, arcsec) of the POSITION before
+        self._main_prev: dict[str, tuple[int, int, float]] = {}    # axis -> (t_us, flags, arcsec) of the POSITION before
         self.peak_current_a: dict[tuple[str, str], float] = {}   # (axis, motor) -> peak from AXIS_AUX
         self.heartbeats: dict[int, tuple[int, int]] = {}   # node -> (t_us, NMT state)
         self.sdo_answers: dict[int, int] = {}   # node -> time of its last SDO response [µs]
         self.emcy_active: dict[int, dict[int, int]] = {}   # node -> {error code: detail}
         self.emcy_frames = 0
-        self._heartbeat_event = None
+        self._heartbeat_event: Any = None
         #: called with (can_id, data, t_us) for SDO responses, EMCY and heartbeats (a canopen
         #: master network's ``notify``, host/canopen_master.py)
         self.canopen_notify: Callable | None = None
-        self.canopen = None                       # host.canopen_master.HostCanopenNetwork, at power-on
+        self.canopen: Any = None                  # host.canopen_master.HostCanopenNetwork, at power-on
         self.identities: dict[str, dict] = {}     # board -> identity read by SDO at power-on
         self.parameters: dict[str, dict] = {}     # board -> parameters read back by SDO
         self.frames_received = 0
@@ -304,7 +308,7 @@ class HostClient:
         self._last_state: dict[int, int] = {}
         self._last_mode: dict[str, int] = {}
         self.lost: set[int] = set()          # nodes whose heartbeat stopped (the report's LOST)
-        self._watch_event = None
+        self._watch_event: Any = None
         # frame type -> handler, built once (not looked up by name for every frame)
         self._handlers = {
             P.AxisStatus: self._on_AxisStatus, P.AxisAux: self._on_AxisAux, P.Position: self._on_Position,
@@ -367,7 +371,7 @@ class HostClient:
             handler(cob, frame, now)
 
     def _on_AxisStatus(self, cob_id: int, f, now: int) -> None:
-        node = P.node_of(cob_id)
+        node = _node_of(cob_id)
         axis = _AXIS_OF_NODE[node]
         st = self.axes[axis]
         raw = f.qei_counts
@@ -391,7 +395,7 @@ class HostClient:
         self._last_mode[axis] = f.mode
 
     def _on_AxisAux(self, cob_id: int, f, now: int) -> None:
-        axis = _AXIS_OF_NODE[P.node_of(cob_id)]
+        axis = _AXIS_OF_NODE[_node_of(cob_id)]
         st = self.axes[axis]
         st.current_a_a = self.adc_to_current_a(f.adc_a)
         st.current_b_a = self.adc_to_current_a(f.adc_b)
@@ -403,7 +407,7 @@ class HostClient:
         st.rate_arcsec_s = f.qei_delta * self.arcsec_per_count[axis] / (TICK_US * 1e-6)
 
     def _on_Position(self, cob_id: int, f, now: int) -> None:
-        node = P.node_of(cob_id)
+        node = _node_of(cob_id)
         ps = self.positions["ra" if node == P.NODE_RA_READER else "dec"]
         if ps.t_us >= 0 and ps.t_us != now:
             self._main_prev[_READER_AXIS[node]] = (ps.t_us, ps.flags, _signed_arcsec(ps.pos_counts))
@@ -422,7 +426,7 @@ class HostClient:
         self.aux = {AUX_AXIS_OF_NODE[n]: AuxState() for n in self.aux_arcsec_per_count}
 
     def _on_TachStatus(self, cob_id: int, f, now: int) -> None:
-        node = P.node_of(cob_id)
+        node = _node_of(cob_id)
         st = self.tachs.get(node)
         if st is None:
             st = self.tachs[node] = TachState()
@@ -439,7 +443,7 @@ class HostClient:
         st.t_us = now
 
     def _on_AxisVelocity(self, cob_id: int, f, now: int) -> None:
-        axis = VEL_AXIS_OF_NODE[P.node_of(cob_id)]
+        axis = VEL_AXIS_OF_NODE[_node_of(cob_id)]
         st = self.axis_velocity.get(axis)
         if st is None:
             st = self.axis_velocity[axis] = AxisVelocityState()
@@ -447,7 +451,7 @@ class HostClient:
         st.frames += 1
 
     def _on_AuxPosition(self, cob_id: int, f, now: int) -> None:
-        node = P.node_of(cob_id)
+        node = _node_of(cob_id)
         axis = AUX_AXIS_OF_NODE[node]
         st = self.aux.get(axis)
         if st is None:
@@ -502,7 +506,7 @@ class HostClient:
         self.focus.enc_counts = f.enc_counts
 
     def _on_Heartbeat(self, cob_id: int, f, now: int) -> None:
-        node = P.node_of(cob_id)
+        node = _node_of(cob_id)
         self.heartbeats[node] = (now, f.state)
         if node in self.lost:
             self.lost.discard(node)
@@ -540,7 +544,7 @@ class HostClient:
         self._check_weather_silence(now)
 
     def _on_Emcy(self, cob_id: int, f, now: int) -> None:
-        node = P.node_of(cob_id)
+        node = _node_of(cob_id)
         self.emcy_frames += 1
         active = self.emcy_active.setdefault(node, {})
         source = _node_name(node)
@@ -555,7 +559,7 @@ class HostClient:
                     f"count={f.count}")
 
     def _on_Limit(self, cob_id: int, f, now: int) -> None:
-        node = P.node_of(cob_id)
+        node = _node_of(cob_id)
         if self.logs:
             self.logs.status(now, node, _node_name(node), "limit", f"flags=0x{f.flags:02X} pos={f.pos_counts}")
 

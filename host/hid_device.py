@@ -27,7 +27,9 @@ Devices are found in a :class:`SimUsb` (a simulated PC's USB host), by default t
 
 from __future__ import annotations
 
-from typing import Callable, Dict, List, Optional
+from typing import Any, Callable, Dict, List, Optional
+
+from mypy_extensions import mypyc_attr
 
 from boards.usb_hid import MANUFACTURER, PRODUCT, PRODUCT_ID, REPORT_DESCRIPTOR, VENDOR_ID
 from bus.errors import HostTimeout
@@ -54,7 +56,7 @@ class SimUsb:
         self.devices: Dict[bytes, _Plugged] = {}
         self._n = 0
 
-    def plug(self, gateway, *, advance: Optional[Callable[[int], None]] = "run_until",
+    def plug(self, gateway, *, advance: Any = "run_until",
              serial: Optional[str] = None, **port_kw) -> UsbHostPort:
         """Connect ``gateway`` (a :class:`boards.usb_gateway.UsbGateway`) with a new host port.
 
@@ -98,7 +100,7 @@ def unplug(gateway) -> None:
     DEFAULT_USB.unplug(gateway)
 
 
-def enumerate(vendor_id: int = 0, product_id: int = 0, *, usb: SimUsb = None) -> List[dict]:  # noqa: A001
+def enumerate(vendor_id: int = 0, product_id: int = 0, *, usb: Optional[SimUsb] = None) -> List[dict]:  # noqa: A001
     """hidapi's ``enumerate``: one dict per matching device (0 = any id)."""
     usb = usb or DEFAULT_USB
     out = []
@@ -111,6 +113,7 @@ def enumerate(vendor_id: int = 0, product_id: int = 0, *, usb: SimUsb = None) ->
     return out
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py)
 class device:  # noqa: N801 - the name hidapi uses
     """hidapi's ``hid.device`` on a simulated gateway (see the module docstring for time)."""
 
