@@ -51,6 +51,9 @@ NATIVE_MODULES = (
     "host.hid_device",
     "host.gateway_bus",
     "bus.simbus",
+    "bus.protocol",
+    "boards.usb_hid",
+    "host.ports",
 )
 
 

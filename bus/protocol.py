@@ -44,7 +44,7 @@ import struct
 from enum import IntEnum, IntFlag
 from functools import lru_cache
 from pathlib import Path
-from typing import Callable, NamedTuple
+from typing import Any, Callable, NamedTuple
 
 from bus.errors import EncodeError, MalformedFrame
 from bus.units import Q15_FULL_SCALE  # noqa: F401  (re-exported: bus.protocol.Q15_FULL_SCALE)
@@ -496,7 +496,7 @@ class Emcy(NamedTuple):
     error_register: int     #: object 0x1001
     fault_code: FaultCode   #: the project's fault code (error reset: of the cleared error)
     detail: int             #: code-specific (error reset: the cleared error code)
-    count: int              #: occurrences of this error since reset (saturating)
+    count: int              # type: ignore[assignment] #: occurrences of this error since reset (saturating)
 
 
 class AxisStatus(NamedTuple):
@@ -539,7 +539,7 @@ class FocusCommandFrame(NamedTuple):
 
 class Sdo(NamedTuple):
     command: int            #: CiA 301 SDO command specifier byte
-    index: int              #: object index (initiate frames; segments carry data here)
+    index: int              # type: ignore[assignment] #: object index (initiate frames; segments carry data here)
     subindex: int
     data: int               #: u32 little-endian (expedited data / size / abort code)
 
@@ -605,7 +605,7 @@ _DOME_MODE = _table(DomeMode)
 _DCMD = _table(DomeCommand)
 
 
-def _enum_or_raise(table: tuple, value: int, frame: str, field: str, exc: type) -> object:
+def _enum_or_raise(table: tuple, value: int, frame: str, field: str, exc: type) -> Any:
     member = table[value] if 0 <= value < len(table) else None
     if member is None:
         valid = [int(m) for m in table if m is not None]
@@ -1523,7 +1523,7 @@ def dbc_signals(cob_id: int, frame) -> dict:
     _, spec, node = COB_TABLE[cob_id]
     sig = {}
     if spec.device_type_byte:
-        sig["device_type"] = int(DeviceType.HOST if spec.sender == "host" else DEVICE_TYPE_OF_NODE[node])
+        sig["device_type"] = int(DeviceType.HOST if spec.sender == "host" else DEVICE_TYPE_OF_NODE[node])  # type: ignore[index]
     for f in spec.fields:
         v = int(getattr(frame, f.name))
         if f.kind == "flags":
@@ -1606,7 +1606,7 @@ def dbc_text() -> str:
         rx = _receivers(spec, node)
         out.append(f"BO_ {cob} {name}: {spec.dlc} {tx}")
         if spec.device_type_byte:
-            dt = int(DeviceType.HOST if spec.sender == "host" else DEVICE_TYPE_OF_NODE[node])
+            dt = int(DeviceType.HOST if spec.sender == "host" else DEVICE_TYPE_OF_NODE[node])  # type: ignore[index]
             out.append(f' SG_ device_type : 0|8@1+ (1,0) [{dt}|{dt}] "" {rx}')
             values.append(f"VAL_ {cob} device_type " +
                           " ".join(f'{int(d)} "{d.name}"' for d in DeviceType) + " ;")
@@ -1647,7 +1647,7 @@ def _range_text(f: Field) -> str:
     if f.kind == "flags":
         return ", ".join(f"bit{i} {n}" for i, n in enumerate(f.flag_names))
     if f.enum is not None and f.kind == "enum":
-        return ", ".join(f"{int(m)} {m.name}" for m in f.enum if f.lo <= int(m) <= f.hi)
+        return ", ".join(f"{int(m)} {m.name}" for m in f.enum if f.lo <= int(m) <= f.hi)  # type: ignore[attr-defined]
     return f"{f.lo}..{f.hi}"
 
 

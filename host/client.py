@@ -22,7 +22,7 @@ watchdog, object 0x1016).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, ClassVar, Mapping
 
 import can
 from mypy_extensions import mypyc_attr
@@ -211,9 +211,42 @@ def _signed_arcsec(pos_counts: int) -> float:
     return c * _ARCSEC_PER_POS_COUNT
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)
+class HostTiming:
+    """The host client's constants (class attributes of :class:`HostClient`, which inherits them;
+    a subclass may override them, e.g. ``BusMonitor.THROUGH_GATEWAY``). Kept out of the
+    dataclass body so that they stay class attributes, not constructor fields."""
+
+    #: The assembly (:func:`host.network.build_network`) gives this host the bus of the USB-HID
+    #: gateway (:class:`host.gateway_bus.HidGatewayBus`), as the paper's PC had (§3.4).
+    THROUGH_GATEWAY: ClassVar[bool] = True
+    BOOT_US: ClassVar[int] = 20_000       #: wait after power-on before the health check [µs] (assumed)
+    POWER_ON_US: ClassVar[int] = 100_000  #: time the boards have to answer the health check's SDO [µs] (assumed)
+    HEARTBEAT_US: ClassVar[int] = 1_000_000   #: the host's CiA heartbeat period [µs] (its EDS 0x1017, 1000 ms)
+    POLL_US: ClassVar[int] = 1_000            #: step while waiting for the health check's answers [µs]
+    #: a health-check SDO request not answered within this long is sent again (at most until
+    #: ``POWER_ON_US``) [µs] (assumed: a careful SDO client retries; a USB gateway whose CAN
+    #: receive buffers overflow when many nodes answer at once drops answers, docs/usb-gateway.md)
+    SDO_RETRY_US: ClassVar[int] = 20_000
+    #: A board whose heartbeat (1 s period) has not arrived for this long is LOST [µs]: 2.5
+    #: periods (assumed; CiA 301 practice is a consumer time of 1.5–3 producer periods).
+    HEARTBEAT_TIMEOUT_US: ClassVar[int] = 2_500_000
+    HEARTBEAT_CHECK_US: ClassVar[int] = 100_000   #: how often the host checks [µs] (a lost board is logged ≤ 0.1 s late)
+    #: No WEATHER_STATUS (1 s period) for this long makes the weather unsafe [µs]: 2.5 periods,
+    #: the heartbeat rule (assumed; docs/faults.md "Weather").
+    WEATHER_TIMEOUT_US: ClassVar[int] = 2_500_000
+    QEI_WRAP: ClassVar[int] = 1 << 24
+
+    #: The auxiliary-vs-main statistics use only frames while the main encoder moves at most this
+    #: fast [arcsec/s]: frames carry no sampling time, and a skew of up to one 10 ms period
+    #: between the two boards' samples is then at most 1″ (assumed console practice: cross-check
+    #: at rest or tracking, not during a slew).
+    AUX_COMPARE_MAX_RATE_ARCSEC_S: ClassVar[float] = 100.0
+
+
 @mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); BusMonitor subclasses it
 @dataclass
-class HostClient:
+class HostClient(HostTiming):
     """Operator client over a python-can bus in simulated time.
 
     Parameters
@@ -249,26 +282,6 @@ class HostClient:
     logs: Any = None
     advance: Callable[[int], None] | None = None
     arcsec_per_count: Mapping = field(default_factory=dict)
-
-    #: The assembly (:func:`host.network.build_network`) gives this host the bus of the USB-HID
-    #: gateway (:class:`host.gateway_bus.HidGatewayBus`), as the paper's PC had (§3.4).
-    THROUGH_GATEWAY = True
-    BOOT_US = 20_000       #: wait after power-on before the health check [µs] (assumed)
-    POWER_ON_US = 100_000  #: time the boards have to answer the health check's SDO [µs] (assumed)
-    HEARTBEAT_US = 1_000_000   #: the host's CiA heartbeat period [µs] (its EDS 0x1017, 1000 ms)
-    POLL_US = 1_000            #: step while waiting for the health check's answers [µs]
-    #: a health-check SDO request not answered within this long is sent again (at most until
-    #: ``POWER_ON_US``) [µs] (assumed: a careful SDO client retries; a USB gateway whose CAN
-    #: receive buffers overflow when many nodes answer at once drops answers, docs/usb-gateway.md)
-    SDO_RETRY_US = 20_000
-    #: A board whose heartbeat (1 s period) has not arrived for this long is LOST [µs]: 2.5
-    #: periods (assumed; CiA 301 practice is a consumer time of 1.5–3 producer periods).
-    HEARTBEAT_TIMEOUT_US = 2_500_000
-    HEARTBEAT_CHECK_US = 100_000   #: how often the host checks [µs] (a lost board is logged ≤ 0.1 s late)
-    #: No WEATHER_STATUS (1 s period) for this long makes the weather unsafe [µs]: 2.5 periods,
-    #: the heartbeat rule (assumed; docs/faults.md "Weather").
-    WEATHER_TIMEOUT_US = 2_500_000
-    QEI_WRAP = 1 << 24
 
     def __post_init__(self) -> None:
         self.axes = {"ra": AxisState(), "dec": AxisState()}
@@ -477,12 +490,6 @@ class HostClient:
         st.sumsq += d * d
         if abs(d) > st.max_abs:
             st.max_abs = abs(d)
-
-    #: The auxiliary-vs-main statistics use only frames while the main encoder moves at most this
-    #: fast [arcsec/s]: frames carry no sampling time, and a skew of up to one 10 ms period
-    #: between the two boards' samples is then at most 1″ (assumed console practice: cross-check
-    #: at rest or tracking, not during a slew).
-    AUX_COMPARE_MAX_RATE_ARCSEC_S = 100.0
 
     def main_arcsec(self, axis: str, t_us: int) -> tuple[float, float | None] | None:
         """The main (EnDat) encoder's last valid signed axis angle [arcsec] and its rate [arcsec/s]

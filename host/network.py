@@ -57,6 +57,7 @@ import can
 import bus as _bus_pkg  # noqa: F401  (registers the schmidt-sim python-can interface)
 from boards.axis_controller import PRESET_RATES_ARCSEC_S, AxisMode
 from boards.peripherals import Adc
+from host.ports import PlantPort
 from boards.registry import BOARD_NAMES, BOARDS, GATEWAY_KIND, BoardInstance, canopen_nodes, network_boards
 from boards.tuning import GAINS_SOURCE, design_axis_gains
 from boards.usb_hid import PRODUCT_ID, VENDOR_ID
@@ -322,22 +323,10 @@ class _Build:
     display_log: DisplayLog | None = None
 
 
-def _advancing(plant, sched: Scheduler, fn: Callable) -> Callable:
-    """``fn`` wrapped so that ``plant`` is advanced to the scheduler's time first."""
-    advance = plant.advance_to
-    if not hasattr(plant, "now_us"):
-        def port(*args):
-            advance(sched.now_us)
-            return fn(*args)
-        return port
-
-    def port(*args):
-        # called several times per tick: skip advance_to(now) when the plant is already there
-        # (a no-op for the plants here; a time in the past still reaches it and raises)
-        if plant.now_us != sched.now_us:
-            advance(sched.now_us)
-        return fn(*args)
-    return port
+def _advancing(plant, sched: Scheduler, fn: Callable, *fixed) -> Callable:
+    """``fn(*fixed, ...)`` wrapped so that ``plant`` is advanced to the scheduler's time first
+    (:class:`host.ports.PlantPort`)."""
+    return PlantPort(plant, sched, fn, *fixed)
 
 
 #: Port name (a firmware keyword argument, ``BoardSpec.ports``) -> factory(build, instance) ->
@@ -346,8 +335,8 @@ def _advancing(plant, sched: Scheduler, fn: Callable) -> Callable:
 PORTS: dict[str, Callable[[_Build, BoardInstance], Callable]] = {
     "read_qei_counts": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, b.plants[i.axis].qei_counts),
     "on_duties": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, b.plants[i.axis].set_duties),
-    "shunt_a_v": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, lambda p=b.plants[i.axis]: p.shunt_voltage_v("a")),
-    "shunt_b_v": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, lambda p=b.plants[i.axis]: p.shunt_voltage_v("b")),
+    "shunt_a_v": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, b.plants[i.axis].shunt_voltage_v, "a"),
+    "shunt_b_v": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, b.plants[i.axis].shunt_voltage_v, "b"),
     "read_position_word": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, b.plants[i.axis].absolute_counts),
     "on_step": lambda b, i: _advancing(b.focus_plant, b.scheduler, b.focus_plant.step),
     "on_power": lambda b, i: _advancing(b.focus_plant, b.scheduler, b.focus_plant.set_power),
@@ -365,8 +354,7 @@ PORTS: dict[str, Callable[[_Build, BoardInstance], Callable]] = {
     "read_wind_v": lambda b, i: _advancing(b.weather, b.scheduler, b.weather.wind_v),
     "read_rain": lambda b, i: _advancing(b.weather, b.scheduler, lambda w=b.weather: w.rain),
     # issue 12: the CP-850 on motor a/b of the axis, the auxiliary encoder's 17-bit word
-    "read_motor_counts": lambda b, i: _advancing(b.plants[i.axis], b.scheduler,
-                                                 lambda p=b.plants[i.axis], m=i.motor: p.tach_counts(m)),
+    "read_motor_counts": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, b.plants[i.axis].tach_counts, i.motor),
     "read_aux_word": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, b.plants[i.axis].aux_encoder_word),
 }
 
