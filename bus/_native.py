@@ -22,10 +22,14 @@ import importlib.util
 import os
 import sys
 
-__all__ = ["NATIVE_MODULES", "native_modules", "install_source_finder"]
+__all__ = ["NATIVE_MODULES", "native_modules", "install_source_finder", "own_abc_cache"]
 
 #: Dotted names of the modules compiled at install (on the per-frame path of every simulated
-#: second: measured with the per-event profile of docs/performance.md).
+#: second: measured with the per-event profile of docs/performance.md). Not compiled on purpose:
+#: ``bus.protocol`` (its public codecs validate any input type themselves and name the frame and
+#: field; compiled, an ``int`` annotation would refuse a float or a numpy integer with a bare
+#: ``TypeError`` first) and ``boards.services`` (the CANopen device: tests replace its methods to
+#: build broken boards, which compiled callers would not see).
 NATIVE_MODULES = (
     "bus.scheduler",
     "bus.network",
@@ -55,6 +59,23 @@ NATIVE_MODULES = (
     "boards.usb_hid",
     "host.ports",
 )
+
+
+def own_abc_cache(cls: type) -> type:
+    """Give an ABC subclass compiled by mypyc its own ABC caches (returns ``cls``).
+
+    mypyc (2.x) builds a class that derives from an ABC (python-can's ``BusABC``) without running
+    ``ABCMeta.__new__``'s cache set-up, so the class shares its base's ``_abc_impl``: once
+    ``isinstance(a SimBus, can.BusABC)`` had been asked, ``isinstance(a SimBus, HidGatewayBus)``
+    answered True (found by tests/test_usb_gateway_host.py). Called on ``bus.simbus.SimBus`` and
+    ``host.gateway_bus.HidGatewayBus`` right after their definition; a no-op on the source.
+    Uses CPython's ``abc._abc_init`` (mypyc builds for CPython only).
+    """
+    if "_abc_impl" not in cls.__dict__:
+        import abc
+
+        abc._abc_init(cls)  # type: ignore[attr-defined]
+    return cls
 
 
 def native_modules() -> list:

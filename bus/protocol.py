@@ -49,6 +49,12 @@ from typing import Any, Callable, NamedTuple
 from bus.errors import EncodeError, MalformedFrame
 from bus.units import Q15_FULL_SCALE  # noqa: F401  (re-exported: bus.protocol.Q15_FULL_SCALE)
 
+#: Integer arguments of the codecs and COB-ID helpers: any value, checked by the codec itself
+#: (``EncodeError``/``MalformedFrame`` naming the frame and field). Annotated ``Any``, not
+#: ``int``, so that the compiled build (bus/_native.py) accepts the same arguments as the source
+#: (a float or a numpy integer reaches the codec's own check instead of a bare ``TypeError``).
+_Int = Any
+
 # ------------------------------------------------------------------------------------------------
 # Nodes, device types, function codes
 # ------------------------------------------------------------------------------------------------
@@ -374,7 +380,7 @@ ADC_MAX = 1023
 # ------------------------------------------------------------------------------------------------
 
 
-def _check_node(kind: str, node: int, allowed: tuple) -> int:
+def _check_node(kind: str, node: _Int, allowed: tuple) -> int:
     if node not in allowed:
         from bus.errors import ConfigurationError
         raise ConfigurationError(
@@ -392,52 +398,52 @@ def stop_all_cob_id() -> int:
     return FC_STOP_ALL
 
 
-def limit_cob_id(node: int) -> int:
+def limit_cob_id(node: _Int) -> int:
     """COB-ID of ``LIMIT`` sent by reader ``node`` (3 or 4): 0x280 + node (its TPDO2)."""
     return FC_LIMIT + _check_node("LIMIT", node, READER_NODES)
 
 
-def emcy_cob_id(node: int) -> int:
+def emcy_cob_id(node: _Int) -> int:
     """COB-ID of ``EMCY`` sent by board ``node`` (1..5): 0x080 + node."""
     return FC_EMCY + _check_node("EMCY", node, BOARD_NODES)
 
 
-def sdo_request_cob_id(node: int) -> int:
+def sdo_request_cob_id(node: _Int) -> int:
     """COB-ID of an SDO request (client → server) to ``node``: 0x600 + node."""
     return FC_SDO_RX + _check_node("SDO", node, BOARD_NODES)
 
 
-def sdo_response_cob_id(node: int) -> int:
+def sdo_response_cob_id(node: _Int) -> int:
     """COB-ID of an SDO response (server → client) from ``node``: 0x580 + node."""
     return FC_SDO_TX + _check_node("SDO", node, BOARD_NODES)
 
 
-def axis_status_cob_id(node: int) -> int:
+def axis_status_cob_id(node: _Int) -> int:
     """COB-ID of ``AXIS_STATUS`` sent by axis controller ``node`` (1 or 2): 0x180 + node."""
     return FC_STATUS + _check_node("AXIS_STATUS", node, AXIS_NODES)
 
 
-def position_cob_id(node: int) -> int:
+def position_cob_id(node: _Int) -> int:
     """COB-ID of ``POSITION`` sent by reader ``node`` (3 or 4): 0x180 + node."""
     return FC_STATUS + _check_node("POSITION", node, READER_NODES)
 
 
-def focus_status_cob_id(node: int = NodeId.FOCUS) -> int:
+def focus_status_cob_id(node: _Int = NodeId.FOCUS) -> int:
     """COB-ID of ``FOCUS_STATUS`` (0x185)."""
     return FC_STATUS + _check_node("FOCUS_STATUS", node, (NodeId.FOCUS,))
 
 
-def axis_aux_cob_id(node: int) -> int:
+def axis_aux_cob_id(node: _Int) -> int:
     """COB-ID of ``AXIS_AUX`` sent by axis controller ``node`` (1 or 2): 0x280 + node."""
     return FC_AUX + _check_node("AXIS_AUX", node, AXIS_NODES)
 
 
-def axis_command_cob_id(node: int) -> int:
+def axis_command_cob_id(node: _Int) -> int:
     """COB-ID of ``AXIS_COMMAND`` addressed to axis controller ``node`` (1 or 2): 0x200 + node."""
     return FC_COMMAND + _check_node("AXIS_COMMAND", node, AXIS_NODES)
 
 
-def focus_command_cob_id(node: int = NodeId.FOCUS) -> int:
+def focus_command_cob_id(node: _Int = NodeId.FOCUS) -> int:
     """COB-ID of ``FOCUS_COMMAND`` (0x205)."""
     return FC_COMMAND + _check_node("FOCUS_COMMAND", node, (NodeId.FOCUS,))
 
@@ -445,27 +451,27 @@ def focus_command_cob_id(node: int = NodeId.FOCUS) -> int:
 # -- issue 12, room nodes: COB-IDs ---------------------------------------------------------------
 
 
-def display_status_cob_id(node: int = NodeId.DISPLAY) -> int:
+def display_status_cob_id(node: _Int = NodeId.DISPLAY) -> int:
     """COB-ID of ``DISPLAY_STATUS`` (0x18C, the display's TPDO1)."""
     return FC_STATUS + _check_node("DISPLAY_STATUS", node, (NodeId.DISPLAY,))
 
 
-def dome_status_cob_id(node: int = NodeId.DOME) -> int:
+def dome_status_cob_id(node: _Int = NodeId.DOME) -> int:
     """COB-ID of ``DOME_STATUS`` (0x18D, the dome's TPDO1)."""
     return FC_STATUS + _check_node("DOME_STATUS", node, (NodeId.DOME,))
 
 
-def dome_command_cob_id(node: int = NodeId.DOME) -> int:
+def dome_command_cob_id(node: _Int = NodeId.DOME) -> int:
     """COB-ID of ``DOME_COMMAND`` (0x20D, the dome's RPDO1)."""
     return FC_COMMAND + _check_node("DOME_COMMAND", node, (NodeId.DOME,))
 
 
-def weather_status_cob_id(node: int = NodeId.WEATHER) -> int:
+def weather_status_cob_id(node: _Int = NodeId.WEATHER) -> int:
     """COB-ID of ``WEATHER_STATUS`` (0x18E, the weather station's TPDO1)."""
     return FC_STATUS + _check_node("WEATHER_STATUS", node, (NodeId.WEATHER,))
 
 
-def heartbeat_cob_id(node: int) -> int:
+def heartbeat_cob_id(node: _Int) -> int:
     """COB-ID of the CiA ``HEARTBEAT`` of ``node`` (1..5 or the host 0x10): 0x700 + node."""
     return FC_HEARTBEAT + _check_node("HEARTBEAT", node, ALL_NODES)
 
@@ -605,7 +611,7 @@ _DOME_MODE = _table(DomeMode)
 _DCMD = _table(DomeCommand)
 
 
-def _enum_or_raise(table: tuple, value: int, frame: str, field: str, exc: type) -> Any:
+def _enum_or_raise(table: tuple, value: _Int, frame: str, field: str, exc: type) -> Any:
     member = table[value] if 0 <= value < len(table) else None
     if member is None:
         valid = [int(m) for m in table if m is not None]
@@ -629,7 +635,7 @@ def _unpack(s: struct.Struct, data, frame: str, device_type) -> tuple:
     return fields
 
 
-def _bad_type(frame: str, expected, got: int) -> MalformedFrame:
+def _bad_type(frame: str, expected, got: _Int) -> MalformedFrame:
     return MalformedFrame(frame, "device_type", f"{expected!r} (0x{int(expected):02X})", got)
 
 
@@ -637,7 +643,7 @@ def _not_int(frame: str, exc: Exception) -> EncodeError:
     return EncodeError(frame, "*", f"int values for every field ({exc})")
 
 
-def _flags(frame: str, field: str, value: int, mask: int) -> int:
+def _flags(frame: str, field: str, value: _Int, mask: _Int) -> int:
     if value & ~mask or value < 0:
         raise EncodeError(frame, field, f"flag bits within 0x{mask:02X}", value)
     return value
@@ -648,7 +654,7 @@ def _flags(frame: str, field: str, value: int, mask: int) -> int:
 _tuple_new = tuple.__new__
 
 
-def _clamp(v: int, lo: int, hi: int) -> int:
+def _clamp(v: _Int, lo: _Int, hi: _Int) -> int:
     return lo if v < lo else (hi if v > hi else v)
 
 
@@ -658,7 +664,7 @@ I32_MIN, I32_MAX = -(1 << 31), (1 << 31) - 1
 _S_NMT = struct.Struct("<BB")
 
 
-def encode_nmt(cmd: int, target_node: int = 0) -> bytes:
+def encode_nmt(cmd: _Int, target_node: _Int = 0) -> bytes:
     """Encode CANopen ``NMT`` (0x000, DLC 2): command specifier, target node (0 = all)."""
     f = "NMT"
     _enum_or_raise(_NMT, cmd, f, "cmd", EncodeError)
@@ -681,7 +687,7 @@ def decode_nmt(data) -> Nmt:
 _S_STOP_ALL = struct.Struct("<BBB5x")
 
 
-def encode_stop_all(cmd: int = BroadcastCommand.STOP_ALL, target_node: int = 0) -> bytes:
+def encode_stop_all(cmd: _Int = BroadcastCommand.STOP_ALL, target_node: _Int = 0) -> bytes:
     """Encode ``STOP_ALL`` (0x190, host TPDO1): bytes ``10 03 nn 00..``, target node (0 = all)."""
     f = "STOP_ALL"
     _enum_or_raise(_BCAST, cmd, f, "cmd", EncodeError)
@@ -704,7 +710,7 @@ _S_LIMIT = struct.Struct("<BBBxI")
 _POS_MASK = (1 << 29) - 1
 
 
-def encode_limit(axis: int, flags: int, pos_counts: int) -> bytes:
+def encode_limit(axis: _Int, flags: _Int, pos_counts: _Int) -> bytes:
     """Encode ``LIMIT`` (0x070 + reader node): axis, LimitFlags, 29-bit position (wraps)."""
     f = "LIMIT"
     _enum_or_raise(_AXIS, axis, f, "axis", EncodeError)
@@ -727,8 +733,8 @@ def decode_limit(data) -> Limit:
 _S_EMCY = struct.Struct("<HBBHH")
 
 
-def encode_emcy(error_code: int, error_register: int, fault_code: int, detail: int = 0,
-                count: int = 0) -> bytes:
+def encode_emcy(error_code: _Int, error_register: _Int, fault_code: _Int, detail: _Int = 0,
+                count: _Int = 0) -> bytes:
     """Encode ``EMCY`` (0x080 + node, CiA 301 §7.2.7): error code u16, error register u8, then the
     manufacturer bytes: project FaultCode u8, detail u16, count u16 (both saturate)."""
     f = "EMCY"
@@ -755,7 +761,7 @@ def decode_emcy(data) -> Emcy:
 _S_AXIS_STATUS = struct.Struct("<BBBhHB")
 
 
-def encode_axis_status(mode: int, flags: int, u_q15: int, qei_counts: int) -> bytes:
+def encode_axis_status(mode: _Int, flags: _Int, u_q15: _Int, qei_counts: _Int) -> bytes:
     """Encode ``AXIS_STATUS`` (0x180 + axis node).
 
     Parameters
@@ -797,7 +803,7 @@ def decode_axis_status(data) -> AxisStatus:
 _S_POSITION = struct.Struct("<BBHI")
 
 
-def encode_position(flags: int, crc_errors: int, pos_counts: int) -> bytes:
+def encode_position(flags: _Int, crc_errors: _Int, pos_counts: _Int) -> bytes:
     """Encode ``POSITION`` (0x180 + reader node): PositionFlags, u16 crc_errors (saturates),
     29-bit absolute position (wraps)."""
     f = "POSITION"
@@ -824,7 +830,7 @@ def decode_position(data) -> Position:
 _S_FOCUS_STATUS = struct.Struct("<BBHhH")
 
 
-def encode_focus_status(flags: int, lvdt_adc: int, pos_halfsteps: int, enc_counts: int) -> bytes:
+def encode_focus_status(flags: _Int, lvdt_adc: _Int, pos_halfsteps: _Int, enc_counts: _Int) -> bytes:
     """Encode ``FOCUS_STATUS`` (0x185): FocusFlags, LVDT ADC 0..1023, half-steps i16 (saturate),
     motor encoder count u16 (wraps: the low 16 bits, as the PIC18F4431 POSCNT register)."""
     f = "FOCUS_STATUS"
@@ -848,7 +854,7 @@ def decode_focus_status(data) -> FocusStatus:
 _S_AXIS_AUX = struct.Struct("<BBHHh")
 
 
-def encode_axis_aux(seq: int, adc_a: int, adc_b: int, qei_delta: int) -> bytes:
+def encode_axis_aux(seq: _Int, adc_a: _Int, adc_b: _Int, qei_delta: _Int) -> bytes:
     """Encode ``AXIS_AUX`` (0x280 + axis node): seq u8 (wraps), shunt ADC counts 0..1023
     (saturate), qei_delta i16 (saturates)."""
     f = "AXIS_AUX"
@@ -879,7 +885,7 @@ def decode_axis_aux(data) -> AxisAux:
 _S_AXIS_COMMAND = struct.Struct("<BBbxi")
 
 
-def encode_axis_command(cmd: int, direction: int = 0, value: int = 0) -> bytes:
+def encode_axis_command(cmd: _Int, direction: _Int = 0, value: _Int = 0) -> bytes:
     """Encode ``AXIS_COMMAND`` (0x200 + axis node).
 
     Parameters
@@ -915,7 +921,7 @@ def decode_axis_command(data) -> AxisCommandFrame:
 _S_FOCUS_COMMAND = struct.Struct("<BB2xi")
 
 
-def encode_focus_command(cmd: int, value: int = 0) -> bytes:
+def encode_focus_command(cmd: _Int, value: _Int = 0) -> bytes:
     """Encode ``FOCUS_COMMAND`` (0x205): FocusCommand, value in half-steps (i32, saturates)."""
     f = "FOCUS_COMMAND"
     _enum_or_raise(_FCMD, cmd, f, "cmd", EncodeError)
@@ -935,7 +941,7 @@ def decode_focus_command(data) -> FocusCommandFrame:
 _S_SDO = struct.Struct("<BHBI")
 
 
-def encode_sdo(command: int, index: int = 0, subindex: int = 0, data: int = 0) -> bytes:
+def encode_sdo(command: _Int, index: _Int = 0, subindex: _Int = 0, data: _Int = 0) -> bytes:
     """Encode an SDO frame in the initiate layout (CiA 301 §7.2.4.3): command specifier, index
     u16, sub-index, 4 data bytes (u32 LE). Segment frames carry 7 data bytes after byte 0 in the
     same 8 bytes."""
@@ -954,7 +960,7 @@ def decode_sdo(data) -> Sdo:
 # -- HEARTBEAT ------------------------------------------------------------------------------------
 
 
-def encode_heartbeat(state: int) -> bytes:
+def encode_heartbeat(state: _Int) -> bytes:
     """Encode the CiA 301 ``HEARTBEAT`` (0x700 + node, DLC 1): the NMT state (0 = boot-up)."""
     _enum_or_raise(_STATE, state, "HEARTBEAT", "state", EncodeError)
     return bytes((int(state),))
@@ -976,7 +982,7 @@ AZIMUTH_CDEG_MAX = 35_999
 HUMIDITY_CPCT_MAX = 10_000
 
 
-def encode_display_status(flags: int, frames_received: int, refreshes: int) -> bytes:
+def encode_display_status(flags: _Int, frames_received: _Int, refreshes: _Int) -> bytes:
     """Encode ``DISPLAY_STATUS`` (0x18C): DisplayFlags, frames received u16 and refreshes u16
     (both wrap)."""
     f = "DISPLAY_STATUS"
@@ -996,7 +1002,7 @@ def decode_display_status(data) -> DisplayStatus:
 _S_DOME_STATUS = struct.Struct("<BBBHHx")
 
 
-def encode_dome_status(mode: int, flags: int, azimuth_cdeg: int, target_cdeg: int) -> bytes:
+def encode_dome_status(mode: _Int, flags: _Int, azimuth_cdeg: _Int, target_cdeg: _Int) -> bytes:
     """Encode ``DOME_STATUS`` (0x18D): DomeMode, DomeFlags, azimuth and target in centi-degrees
     (each reduced modulo 36000: an angle wraps)."""
     f = "DOME_STATUS"
@@ -1021,7 +1027,7 @@ def decode_dome_status(data) -> DomeStatus:
 _S_DOME_COMMAND = struct.Struct("<BB2xi")
 
 
-def encode_dome_command(cmd: int, value: int = 0) -> bytes:
+def encode_dome_command(cmd: _Int, value: _Int = 0) -> bytes:
     """Encode ``DOME_COMMAND`` (0x20D): DomeCommand, value i32 (GOTO: azimuth centi-degrees;
     saturates; the dome refuses values outside 0..35999)."""
     f = "DOME_COMMAND"
@@ -1041,7 +1047,7 @@ def decode_dome_command(data) -> DomeCommandFrame:
 _S_WEATHER_STATUS = struct.Struct("<BBhHH")
 
 
-def encode_weather_status(flags: int, temperature_cdegc: int, humidity_cpct: int, wind_cm_s: int) -> bytes:
+def encode_weather_status(flags: _Int, temperature_cdegc: _Int, humidity_cpct: _Int, wind_cm_s: _Int) -> bytes:
     """Encode ``WEATHER_STATUS`` (0x18E): WeatherFlags, temperature i16 0.01 degC, humidity
     0..10000 (0.01 %), wind u16 cm/s (all saturate)."""
     f = "WEATHER_STATUS"
@@ -1290,12 +1296,12 @@ class AuxPosition(NamedTuple):
     aux_counts: int         #: multi-turn encoder count: turns * 2**17 + 17-bit word (i32)
 
 
-def tach_status_cob_id(node: int) -> int:
+def tach_status_cob_id(node: _Int) -> int:
     """COB-ID of ``TACH_STATUS`` sent by tachometer ``node`` (6..9): 0x180 + node (its TPDO1)."""
     return FC_STATUS + _check_node("TACH_STATUS", node, TACH_NODES)
 
 
-def aux_position_cob_id(node: int) -> int:
+def aux_position_cob_id(node: _Int) -> int:
     """COB-ID of ``AUX_POSITION`` sent by auxiliary encoder ``node`` (0x0A, 0x0B): 0x180 + node."""
     return FC_STATUS + _check_node("AUX_POSITION", node, AUX_NODES)
 
@@ -1305,7 +1311,7 @@ _DT_TACH = DeviceType.TACHOMETER
 _DT_AUX = DeviceType.AUX_ENCODER
 
 
-def encode_tach_status(window_ticks: int, counts: int, speed_urad_s: int) -> bytes:
+def encode_tach_status(window_ticks: _Int, counts: _Int, speed_urad_s: _Int) -> bytes:
     """Encode ``TACH_STATUS`` (0x180 + tachometer node): averaging window in 5 ms ticks
     (1..200, EncodeError otherwise), motor encoder count u16 (wraps), speed µrad/s i32
     (saturates)."""
@@ -1335,7 +1341,7 @@ def decode_tach_status(data) -> TachStatus:
 _S_AUX_POSITION = struct.Struct("<BB2xi")
 
 
-def encode_aux_position(flags: int, aux_counts: int) -> bytes:
+def encode_aux_position(flags: _Int, aux_counts: _Int) -> bytes:
     """Encode ``AUX_POSITION`` (0x180 + auxiliary-encoder node): AuxFlags, multi-turn count i32
     (saturates)."""
     f = "AUX_POSITION"
@@ -1384,7 +1390,7 @@ class AxisVelocity(NamedTuple):
     rate_marcsec_s: int     #: axis rate, milli-arcsec/s (i32, saturating)
 
 
-def axis_velocity_cob_id(node: int) -> int:
+def axis_velocity_cob_id(node: _Int) -> int:
     """COB-ID of ``AXIS_VELOCITY`` sent by velocity reader ``node`` (0x0F, 0x11): 0x180 + node (TPDO1)."""
     return FC_STATUS + _check_node("AXIS_VELOCITY", node, VEL_NODES)
 
@@ -1393,7 +1399,7 @@ _S_AXIS_VELOCITY = struct.Struct("<BBHi")
 _DT_VEL = DeviceType.AXIS_VELOCITY
 
 
-def encode_axis_velocity(window_ticks: int, counts: int, rate_marcsec_s: int) -> bytes:
+def encode_axis_velocity(window_ticks: _Int, counts: _Int, rate_marcsec_s: _Int) -> bytes:
     """Encode ``AXIS_VELOCITY`` (0x180 + velocity reader node): averaging window in 10 ms ticks
     (1..100, EncodeError otherwise), encoder count u16 (wraps), axis rate milli-arcsec/s i32
     (saturates)."""
@@ -1479,26 +1485,26 @@ _DECODERS = {cob: entry[1].decode for cob, entry in COB_TABLE.items()}
 _NAMES = {cob: entry[0] for cob, entry in COB_TABLE.items()}
 
 
-def frame_name(cob_id: int) -> str:
+def frame_name(cob_id: _Int) -> str:
     """Message name of ``cob_id`` as in the DBC, e.g. ``0x181 -> "AXIS_STATUS_RA"``;
     ``"UNKNOWN_0x123"`` for identifiers outside the protocol."""
     name = _NAMES.get(cob_id)
     return name if name is not None else f"UNKNOWN_0x{cob_id:03X}"
 
 
-def frame_kind(cob_id: int) -> str | None:
+def frame_kind(cob_id: _Int) -> str | None:
     """Frame kind of ``cob_id`` (``"AXIS_STATUS"``...), or None if unknown."""
     entry = COB_TABLE.get(cob_id)
     return entry[1].name if entry else None
 
 
-def node_of(cob_id: int) -> int | None:
+def node_of(cob_id: _Int) -> int | None:
     """Node the COB-ID is formed with (sender; addressee for commands), None for broadcasts."""
     entry = COB_TABLE.get(cob_id)
     return entry[2] if entry else None
 
 
-def decode(cob_id: int, data) -> NamedTuple:
+def decode(cob_id: _Int, data) -> NamedTuple:
     """Decode any protocol frame by identifier.
 
     Raises
@@ -1514,7 +1520,7 @@ def decode(cob_id: int, data) -> NamedTuple:
     return decoder(data)
 
 
-def dbc_signals(cob_id: int, frame) -> dict:
+def dbc_signals(cob_id: _Int, frame) -> dict:
     """Raw DBC signal values of a decoded frame (what cantools returns with ``scaling=False``).
 
     Flags fields expand into one signal per bit; the ``AXIS_COMMAND`` value goes to the signal
@@ -1536,7 +1542,7 @@ def dbc_signals(cob_id: int, frame) -> dict:
     return sig
 
 
-def format_frame(cob_id: int, data) -> str:
+def format_frame(cob_id: _Int, data) -> str:
     """One-line human-readable rendering for logs, never raising."""
     try:
         fields = decode(cob_id, data)

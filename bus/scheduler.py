@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import heapq
 from operator import index as _index
-from typing import Callable, Optional
+from typing import Any, Callable, Optional
 
 from bus.errors import SimulationError
 
@@ -107,9 +107,16 @@ class Scheduler:
         Current simulated time, integer µs. Advanced only by :meth:`run_until` and :meth:`step`.
     events_run : int
         Number of callbacks executed so far (for benchmarks).
+
+    Notes
+    -----
+    Times and periods given to the public methods may be any integer type (``int``,
+    ``numpy.int64``: anything with ``__index__``; floats are refused with ``TypeError``). They
+    are annotated ``Any`` so that the compiled build (``bus/_native.py``) accepts exactly what
+    the source accepts and converts with ``operator.index``.
     """
 
-    def __init__(self, start_us: int = 0) -> None:
+    def __init__(self, start_us: Any = 0) -> None:
         self.now_us: int = _index(start_us)
         self.events_run = 0
         self._heap: list[tuple[int, int, int, Event]] = []
@@ -117,7 +124,7 @@ class Scheduler:
         self._running = False
 
     # -- scheduling -------------------------------------------------------------------------
-    def call_at(self, t_us: int, callback: Callback, priority: int = 0, *,
+    def call_at(self, t_us: Any, callback: Callback, priority: int = 0, *,
                 owner: str | None = None) -> Event:
         """Run ``callback(now_us)`` once at absolute time ``t_us``.
 
@@ -152,7 +159,7 @@ class Scheduler:
         self._push(ev)
         return ev
 
-    def call_later(self, delay_us: int, callback: Callback, priority: int = 0, *,
+    def call_later(self, delay_us: Any, callback: Callback, priority: int = 0, *,
                    owner: str | None = None) -> Event:
         """Run ``callback(now_us)`` once, ``delay_us`` (integer µs, ``>= 0``) from now."""
         delay_us = _index(delay_us)
@@ -160,7 +167,7 @@ class Scheduler:
             raise SimulationError(f"negative delay {delay_us} µs", owner, self.now_us)
         return self.call_at(self.now_us + delay_us, callback, priority, owner=owner)
 
-    def call_every(self, period_us: int, callback: Callback, *, start_us: int | None = None,
+    def call_every(self, period_us: Any, callback: Callback, *, start_us: Any = None,
                    priority: int = 0, owner: str | None = None) -> Event:
         """Run ``callback(now_us)`` at ``start_us + k * period_us`` for k = 0, 1, 2, ...
 
@@ -239,7 +246,7 @@ class Scheduler:
         """Number of queued, non-cancelled events."""
         return sum(1 for entry in self._heap if not entry[3].cancelled)
 
-    def run_until(self, t_us: int) -> None:
+    def run_until(self, t_us: Any) -> None:
         """Run every event with time ``<= t_us`` in order, then set ``now_us = t_us``.
 
         Parameters
@@ -254,9 +261,9 @@ class Scheduler:
             the failing event's time), if ``t_us`` is in the past, or if called re-entrantly
             from inside a callback.
         """
-        t_us = _index(t_us)
-        if t_us < self.now_us:
-            raise SimulationError(f"run_until({t_us}) is before now ({self.now_us} µs)",
+        end_us: int = _index(t_us)       # typed: the loop compares native ints
+        if end_us < self.now_us:
+            raise SimulationError(f"run_until({end_us}) is before now ({self.now_us} µs)",
                                   None, self.now_us)
         if self._running:
             raise SimulationError("run_until called from inside a callback", None, self.now_us)
@@ -266,7 +273,7 @@ class Scheduler:
         self._running = True
         n = 0
         try:
-            while heap and heap[0][0] <= t_us:
+            while heap and heap[0][0] <= end_us:
                 t, prio, _, ev = heap[0]
                 if ev.cancelled:
                     pop(heap)
@@ -289,7 +296,7 @@ class Scheduler:
                     raise
                 except Exception as exc:
                     raise self._wrap(ev, exc)
-            self.now_us = t_us
+            self.now_us = end_us
         finally:
             self._running = False
             self.events_run += n

@@ -29,6 +29,7 @@ from typing import Callable
 
 import can
 
+from bus._native import own_abc_cache
 from bus.errors import BusError
 from bus.network import CanNetwork, NodeErrorState, get_network
 
@@ -216,3 +217,6 @@ class SimBus(can.BusABC):
         from bus.network import _REGISTRY
 
         return [{"interface": "schmidt-sim", "channel": ch} for ch in _REGISTRY]
+
+
+own_abc_cache(SimBus)   # compiled by mypyc: see bus._native.own_abc_cache

@@ -153,6 +153,7 @@ def bench(scenario, network: str, seconds: float, repeat: int) -> dict:
     ValueError
         For an unknown network name (the message lists the known ones).
     """
+    from bus._native import NATIVE_MODULES, native_modules
     from plant import kernel
 
     nets = networks()
@@ -189,6 +190,10 @@ def bench(scenario, network: str, seconds: float, repeat: int) -> dict:
             for m in ("twin_train", "rigid")},
         "target_rtf": TARGET_RTF.get(network),
         "target_ratio": TARGET_RATIO.get(network),
+        # the hot path compiled by mypyc at install (docs/performance.md "Compiled hot path"):
+        # which of bus._native.NATIVE_MODULES ran compiled (SCHMIDT_FIL_NATIVE=0: none)
+        "native_modules": len(native_modules()),
+        "native_modules_listed": len(NATIVE_MODULES),
     }
 
 
@@ -214,6 +219,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"ratio: {out['ratio']:.2f}{verdict(out['ratio'], out['target_ratio'])}   bus load "
           f"{out['bus_load_pct']:.1f} % ({out['bus_frames_per_s']:.0f} frames/s)   "
           f"peak memory (max RSS) {out['peak_memory']['max_rss_mib']} MiB")
+    print(f"compiled hot path (mypyc): {out['native_modules']} of {out['native_modules_listed']} modules"
+          + ("" if out["native_modules"] else
+             " (pure Python: SCHMIDT_FIL_NATIVE=0, or installed without compiling; docs/performance.md)"))
     pc, pi = out["plant_us_per_tick"], out["plant_us_per_tick_interpreted"]
     print(f"one axis plant alone, per 5 ms tick ({out['plant_backend']} kernel): twin_train "
           f"{pc['twin_train']} µs, rigid {pc['rigid']} µs; interpreted: twin_train "

@@ -24,6 +24,7 @@ from typing import Deque, Iterable, Optional
 import can
 
 from bus import hid_reports as R
+from bus._native import own_abc_cache
 
 __all__ = ["HidGatewayBus"]
 
@@ -157,3 +158,6 @@ class HidGatewayBus(can.BusABC):
         close = getattr(self.device, "close", None)
         if close is not None:
             close()
+
+
+own_abc_cache(HidGatewayBus)   # compiled by mypyc: see bus._native.own_abc_cache
