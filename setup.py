@@ -26,8 +26,10 @@ from setuptools import setup
 HERE = os.path.dirname(os.path.abspath(__file__))
 #: Modules compiled by mypyc: one list, in bus/_native.py (standard library only, run here
 #: before the package's dependencies exist).
-NATIVE_MODULES = [name.replace(".", "/") + ".py"
-                  for name in runpy.run_path(os.path.join(HERE, "bus", "_native.py"))["NATIVE_MODULES"]]
+_NATIVE = runpy.run_path(os.path.join(HERE, "bus", "_native.py"))
+NATIVE_MODULES = [name.replace(".", "/") + ".py" for name in _NATIVE["NATIVE_MODULES"]]
+#: name of the shared library mypyc builds for them (``<GROUP>__mypyc``, beside ``bus/``)
+GROUP = _NATIVE["GROUP"]
 
 
 def _native_extensions():
@@ -37,7 +39,7 @@ def _native_extensions():
     try:
         from mypyc.build import mypycify
         exts = mypycify(["--ignore-missing-imports", "--follow-imports=silent", *NATIVE_MODULES],
-                        opt_level="3")
+                        opt_level="3", group_name=GROUP)
     except (ImportError, SystemExit, Exception) as exc:   # noqa: BLE001 - any failure: pure Python
         print(f"schmidt-fil: WARNING: mypyc compilation not available ({exc!r}); installing "
               f"pure Python (slower, same results)", file=sys.stderr)

@@ -9,7 +9,9 @@ the logs).
 ``SCHMIDT_FIL_NATIVE=0`` in the environment makes Python import the ``.py`` source of these
 modules instead of their compiled extensions, for debugging (tracebacks with source lines,
 pdb) or to measure what the compilation gives, without reinstalling. The switch acts at import,
-so it must be set before ``bus`` or ``boards`` is first imported.
+so it must be set before ``bus`` or ``boards`` is first imported. The source also runs, with a
+one-line warning, when a listed ``.py`` is newer than its compiled extension (edited or checked
+out after the install), so an edit always takes effect.
 
 This file must stay importable on its own (``setup.py`` runs it before the package's
 dependencies are installed): standard library only.
@@ -22,7 +24,7 @@ import importlib.util
 import os
 import sys
 
-__all__ = ["NATIVE_MODULES", "native_modules", "install_source_finder", "own_abc_cache"]
+__all__ = ["NATIVE_MODULES", "native_modules", "install_source_finder", "own_abc_cache", "stale_modules"]
 
 #: Dotted names of the modules compiled at install (on the per-frame path of every simulated
 #: second: measured with the per-event profile of docs/performance.md). Not compiled on purpose:
@@ -61,6 +63,11 @@ NATIVE_MODULES = (
 )
 
 
+#: Group name of the mypyc build: its shared library is ``<GROUP>__mypyc<suffix>`` in the folder
+#: holding ``bus/`` (each listed module's own extension is a small shim that loads it).
+GROUP = "schmidt_fil"
+
+
 def own_abc_cache(cls: type) -> type:
     """Give an ABC subclass compiled by mypyc its own ABC caches (returns ``cls``).
 
@@ -90,7 +97,7 @@ def native_modules() -> list:
 
 class _SourceFinder:
     """Meta path finder: the ``.py`` source of a :data:`NATIVE_MODULES` module, never its
-    compiled extension (installed only when ``SCHMIDT_FIL_NATIVE=0``)."""
+    compiled extension (installed by :func:`install_source_finder`)."""
 
     @classmethod
     def find_spec(cls, fullname, path=None, target=None):
@@ -105,10 +112,54 @@ class _SourceFinder:
         return None
 
 
+def stale_modules(root: str) -> list:
+    """Listed modules whose ``.py`` under ``root`` (the folder holding ``bus/``) is newer than the
+    compiled build: edited or checked out after the last install.
+
+    The build's time is that of the group's shared library (``<GROUP>__mypyc``, rebuilt whenever
+    any listed module changed); a module's own extension is a shim that an unchanged rebuild may
+    leave with an old time, so it is not the reference.
+
+    Returns
+    -------
+    list of str
+        Dotted names; empty when nothing was compiled or the build is current.
+    """
+    built = None
+    for suffix in importlib.machinery.EXTENSION_SUFFIXES:
+        try:
+            built = os.stat(os.path.join(root, GROUP + "__mypyc" + suffix)).st_mtime
+            break
+        except OSError:
+            continue
+    if built is None:
+        return []
+    out = []
+    for name in NATIVE_MODULES:
+        try:
+            if os.stat(os.path.join(root, *name.split(".")) + ".py").st_mtime > built:
+                out.append(name)
+        except OSError:
+            continue
+    return out
+
+
 def install_source_finder() -> bool:
-    """Install the source-only finder if ``SCHMIDT_FIL_NATIVE=0`` (idempotent); True if active."""
+    """Run the Python source of the listed modules instead of their compiled extensions when
+    ``SCHMIDT_FIL_NATIVE=0``, or when any listed ``.py`` is newer than its extension (a source
+    edited, or a branch checked out, after the install compiled it: the compiled code would run
+    the old version). All or none: compiled and source halves of the same classes must not mix.
+    Idempotent; returns True if the source runs.
+    """
+    if any(f is _SourceFinder for f in sys.meta_path):
+        return True
     if os.environ.get("SCHMIDT_FIL_NATIVE", "1") != "0":
-        return False
-    if not any(f is _SourceFinder for f in sys.meta_path):
-        sys.meta_path.insert(0, _SourceFinder)
+        stale = stale_modules(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+        if not stale:
+            return False
+        print(f"schmidt-fil: {stale[0].replace('.', '/')}.py"
+              f"{f' and {len(stale) - 1} more' if len(stale) > 1 else ''} changed after the hot path "
+              f"was compiled; running the Python source (same results, slower). Reinstall "
+              f"(pip install -e .) to compile it again.", file=sys.stderr)
+    sys.meta_path.insert(0, _SourceFinder)
     return True

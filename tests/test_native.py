@@ -89,3 +89,25 @@ def test_compiled_bus_classes_keep_their_own_abc_caches():
     assert not issubclass(SimBus, HidGatewayBus) and not issubclass(HidGatewayBus, SimBus)
     for cls in (SimBus, HidGatewayBus):
         assert "_abc_impl" in cls.__dict__
+
+
+def test_a_source_newer_than_the_build_is_detected(tmp_path):
+    """``stale_modules``: a listed ``.py`` newer than the group's shared library (edited or
+    checked out after the install) is named, so ``bus`` runs the source instead of old compiled
+    code; nothing is stale without a build, or when the build is newer."""
+    import importlib.machinery
+
+    from bus._native import GROUP, stale_modules
+
+    suffix = importlib.machinery.EXTENSION_SUFFIXES[0]
+    src = tmp_path / "bus" / "network.py"
+    src.parent.mkdir()
+    src.write_text("# source\n")
+    assert stale_modules(str(tmp_path)) == []                 # nothing compiled
+    lib = tmp_path / f"{GROUP}__mypyc{suffix}"
+    lib.write_bytes(b"\0")
+    os.utime(src, (1_000, 1_000))
+    os.utime(lib, (2_000, 2_000))
+    assert stale_modules(str(tmp_path)) == []                 # built after the edit
+    os.utime(src, (3_000, 3_000))
+    assert stale_modules(str(tmp_path)) == ["bus.network"]    # edited after the build
