@@ -20,8 +20,10 @@ Decisions (and why):
 import os
 import runpy
 import sys
+import sysconfig
 
 from setuptools import setup
+from setuptools.command.build_ext import build_ext
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 #: Modules compiled by mypyc: one list, in bus/_native.py (standard library only, run here
@@ -49,4 +51,41 @@ def _native_extensions():
     return exts
 
 
-setup(ext_modules=_native_extensions())
+class BuildNative(build_ext):
+    """``build_ext``, all or none: the compiled files of an earlier install are removed first,
+    and if any extension fails (they are optional: the install goes on), every compiled file
+    is removed again, so Python imports the source of every listed module. Without this, a
+    failed rebuild of the shared library would leave the previous one in place behind new
+    shims, running old code."""
+
+    def _outputs(self) -> list:
+        paths = set()
+        for ext in self.extensions:
+            paths.add(self.get_ext_fullpath(ext.name))
+            rel = os.path.join(*ext.name.split(".")) + sysconfig.get_config_var("EXT_SUFFIX")
+            paths.add(os.path.join(HERE, rel))            # in the source tree (editable install)
+        return sorted(paths)
+
+    def _remove_outputs(self) -> None:
+        for path in self._outputs():
+            if os.path.exists(path):
+                os.remove(path)
+
+    def run(self) -> None:
+        self._failed = []
+        self._remove_outputs()
+        super().run()
+        if self._failed:
+            self._remove_outputs()
+            print(f"schmidt-fil: WARNING: compiling {', '.join(self._failed)} failed; no module is "
+                  f"compiled: installing pure Python (slower, same results)", file=sys.stderr)
+
+    def build_extension(self, ext) -> None:
+        try:
+            super().build_extension(ext)
+        except Exception:
+            self._failed.append(ext.name)
+            raise
+
+
+setup(ext_modules=_native_extensions(), cmdclass={"build_ext": BuildNative})

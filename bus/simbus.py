@@ -28,7 +28,6 @@ from collections import deque
 from typing import Callable
 
 import can
-from mypy_extensions import mypyc_attr
 
 from bus._native import own_abc_cache
 from bus.errors import BusError
@@ -37,7 +36,6 @@ from bus.network import CanNetwork, NodeErrorState, get_network
 __all__ = ["SimBus"]
 
 
-@mypyc_attr(native_class=False)   # a python-can BusABC subclass: a plain Python class, compiled
 class SimBus(can.BusABC):
     """One node's CAN controller on a simulated :class:`~bus.network.CanNetwork`.
 

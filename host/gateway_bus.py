@@ -22,7 +22,6 @@ from collections import deque
 from typing import Deque, Iterable, Optional
 
 import can
-from mypy_extensions import mypyc_attr
 
 from bus import hid_reports as R
 from bus._native import own_abc_cache
@@ -30,7 +29,6 @@ from bus._native import own_abc_cache
 __all__ = ["HidGatewayBus"]
 
 
-@mypyc_attr(native_class=False)   # a python-can BusABC subclass: a plain Python class, compiled
 class HidGatewayBus(can.BusABC):
     """python-can ``BusABC`` over a hidapi-shaped device opened on the gateway.
 

@@ -31,7 +31,6 @@ ABORT_NO_DATA = 0x08000024
 Value = Union[int, str]
 
 
-@mypyc_attr(native_class=False)   # derives from canopen's exception: a plain Python class, compiled
 class ObjectRefused(SdoAbortedError):
     """Raised by :meth:`Application.od_write` to refuse a value; becomes an SDO abort.
 
