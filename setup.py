@@ -42,7 +42,7 @@ def _native_extensions():
         from mypyc.build import mypycify
         exts = mypycify(["--ignore-missing-imports", "--follow-imports=silent", *NATIVE_MODULES],
                         opt_level="3", group_name=GROUP)
-    except (ImportError, SystemExit, Exception) as exc:   # noqa: BLE001 - any failure: pure Python
+    except (SystemExit, Exception) as exc:   # noqa: BLE001 - any failure: pure Python
         print(f"schmidt-fil: WARNING: mypyc compilation not available ({exc!r}); installing "
               f"pure Python (slower, same results)", file=sys.stderr)
         return []

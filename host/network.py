@@ -323,23 +323,17 @@ class _Build:
     display_log: DisplayLog | None = None
 
 
-def _advancing(plant, sched: Scheduler, fn: Callable, *fixed) -> Callable:
-    """``fn(*fixed, ...)`` wrapped so that ``plant`` is advanced to the scheduler's time first
-    (:class:`host.ports.PlantPort`)."""
-    return PlantPort(plant, sched, fn, *fixed)
-
-
 #: Port name (a firmware keyword argument, ``BoardSpec.ports``) -> factory(build, instance) ->
 #: the callable handed to the firmware. A new board kind that needs a plant quantity no board has
 #: yet adds one factory here.
 PORTS: dict[str, Callable[[_Build, BoardInstance], Callable]] = {
-    "read_qei_counts": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, b.plants[i.axis].qei_counts),
-    "on_duties": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, b.plants[i.axis].set_duties),
-    "shunt_a_v": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, b.plants[i.axis].shunt_voltage_v, "a"),
-    "shunt_b_v": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, b.plants[i.axis].shunt_voltage_v, "b"),
-    "read_position_word": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, b.plants[i.axis].absolute_counts),
-    "on_step": lambda b, i: _advancing(b.focus_plant, b.scheduler, b.focus_plant.step),
-    "on_power": lambda b, i: _advancing(b.focus_plant, b.scheduler, b.focus_plant.set_power),
+    "read_qei_counts": lambda b, i: PlantPort(b.plants[i.axis], b.scheduler, b.plants[i.axis].qei_counts),
+    "on_duties": lambda b, i: PlantPort(b.plants[i.axis], b.scheduler, b.plants[i.axis].set_duties),
+    "shunt_a_v": lambda b, i: PlantPort(b.plants[i.axis], b.scheduler, b.plants[i.axis].shunt_voltage_v, "a"),
+    "shunt_b_v": lambda b, i: PlantPort(b.plants[i.axis], b.scheduler, b.plants[i.axis].shunt_voltage_v, "b"),
+    "read_position_word": lambda b, i: PlantPort(b.plants[i.axis], b.scheduler, b.plants[i.axis].absolute_counts),
+    "on_step": lambda b, i: PlantPort(b.focus_plant, b.scheduler, b.focus_plant.step),
+    "on_power": lambda b, i: PlantPort(b.focus_plant, b.scheduler, b.focus_plant.set_power),
     # the kinematic focus plant changes only on step()/set_power(), so its read-only sensors
     # need no advance_to: direct ports (cheaper; sampled every 10 ms with RS232)
     "read_lvdt_v": lambda b, i: b.focus_plant.lvdt_voltage_v,
@@ -347,15 +341,15 @@ PORTS: dict[str, Callable[[_Build, BoardInstance], Callable]] = {
     "read_encoder_counts": lambda b, i: b.focus_plant.motor_encoder_counts,
     # -- issue 12, room nodes
     "on_show": lambda b, i: b.display_log.show,
-    "read_azimuth_counts": lambda b, i: _advancing(b.dome_plant, b.scheduler, b.dome_plant.encoder_counts),
-    "set_speed_reference": lambda b, i: _advancing(b.dome_plant, b.scheduler, b.dome_plant.set_speed_reference),
-    "read_temperature_v": lambda b, i: _advancing(b.weather, b.scheduler, b.weather.temperature_v),
-    "read_humidity_v": lambda b, i: _advancing(b.weather, b.scheduler, b.weather.humidity_v),
-    "read_wind_v": lambda b, i: _advancing(b.weather, b.scheduler, b.weather.wind_v),
-    "read_rain": lambda b, i: _advancing(b.weather, b.scheduler, lambda w=b.weather: w.rain),
+    "read_azimuth_counts": lambda b, i: PlantPort(b.dome_plant, b.scheduler, b.dome_plant.encoder_counts),
+    "set_speed_reference": lambda b, i: PlantPort(b.dome_plant, b.scheduler, b.dome_plant.set_speed_reference),
+    "read_temperature_v": lambda b, i: PlantPort(b.weather, b.scheduler, b.weather.temperature_v),
+    "read_humidity_v": lambda b, i: PlantPort(b.weather, b.scheduler, b.weather.humidity_v),
+    "read_wind_v": lambda b, i: PlantPort(b.weather, b.scheduler, b.weather.wind_v),
+    "read_rain": lambda b, i: PlantPort(b.weather, b.scheduler, lambda w=b.weather: w.rain),
     # issue 12: the CP-850 on motor a/b of the axis, the auxiliary encoder's 17-bit word
-    "read_motor_counts": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, b.plants[i.axis].tach_counts, i.motor),
-    "read_aux_word": lambda b, i: _advancing(b.plants[i.axis], b.scheduler, b.plants[i.axis].aux_encoder_word),
+    "read_motor_counts": lambda b, i: PlantPort(b.plants[i.axis], b.scheduler, b.plants[i.axis].tach_counts, i.motor),
+    "read_aux_word": lambda b, i: PlantPort(b.plants[i.axis], b.scheduler, b.plants[i.axis].aux_encoder_word),
 }
 
 
