@@ -4,9 +4,17 @@ Everything time-dependent in schmidt-fil (board timers, CAN frame ends, plant in
 host scenarios) is an event on one :class:`Scheduler`. Nothing reads the wall clock, sleeps or
 starts a thread.
 
-Ordering is total and deterministic: the heap holds ``(t_us, priority, seq, event)``; at equal
+Ordering is total and deterministic: events are ordered by ``(t_us, priority, seq)``; at equal
 time a lower ``priority`` number runs first, and ``seq`` (insertion order) breaks the remaining
 ties. Two runs of the same scenario therefore execute the same callbacks in the same order.
+
+The queue is a binary heap of the :class:`Event` objects themselves, ordered by those three
+integer fields (:func:`_sift_down` / :func:`_sift_up`: the algorithm of :mod:`heapq`), not a
+:mod:`heapq` of tuples. Compiled (``bus/_native.py``), its comparisons are C compares of the
+events' integer fields and nothing is allocated per event; ``heapq`` built a 4-tuple per push
+and compared tuples item by item, through the generic call and comparison protocols (≈ 7 % of
+the ``full`` network's time, docs/performance.md, session 8). Interpreted (``SCHMIDT_FIL_NATIVE=0``)
+this heap is slower than ``heapq``'s C; the compiled build is the one that has to be fast.
 
 Examples
 --------
@@ -20,7 +28,6 @@ Examples
 
 from __future__ import annotations
 
-import heapq
 from operator import index as _index
 from typing import Any, Callable, Optional
 
@@ -67,18 +74,25 @@ class Event:
         Repeat period for :meth:`Scheduler.call_every`, else ``None``.
     cancelled : bool
         True once cancelled (or once a one-shot event has run).
+    seq : int
+        Insertion number of its current place in the queue (breaks ties of ``t_us`` and
+        ``priority``).
+    queued : bool
+        True while it is in the scheduler's heap (a cancelled event stays there until its time).
     """
 
-    __slots__ = ("t_us", "priority", "callback", "owner", "period_us", "cancelled")
+    __slots__ = ("t_us", "priority", "seq", "callback", "owner", "period_us", "cancelled", "queued")
 
     def __init__(self, t_us: int, priority: int, callback: Callback, owner: str | None,
                  period_us: int | None) -> None:
         self.t_us = t_us
         self.priority = priority
+        self.seq = 0
         self.callback = callback
         self.owner = owner
         self.period_us = period_us
         self.cancelled = False
+        self.queued = False
 
     def describe_owner(self) -> str:
         """Return the owner string, or the callback's qualified name when no owner was given."""
@@ -91,6 +105,62 @@ class Event:
         rep = f" every {self.period_us} µs" if self.period_us else ""
         state = " cancelled" if self.cancelled else ""
         return f"<Event {self.describe_owner()} at {self.t_us} µs prio {self.priority}{rep}{state}>"
+
+
+def _before(a: Event, b: Event) -> bool:
+    """True if ``a`` runs before ``b``: ``(t_us, priority, seq)`` compared in that order."""
+    if a.t_us != b.t_us:
+        return a.t_us < b.t_us
+    if a.priority != b.priority:
+        return a.priority < b.priority
+    return a.seq < b.seq
+
+
+def _sift_down(heap: list[Event], start: int, pos: int) -> None:
+    """Move ``heap[pos]`` towards the root (not above ``start``) until its parent runs before
+    it (``heapq._siftdown``)."""
+    item = heap[pos]
+    while pos > start:
+        parent_pos = (pos - 1) >> 1
+        parent = heap[parent_pos]
+        if _before(item, parent):
+            heap[pos] = parent
+            pos = parent_pos
+            continue
+        break
+    heap[pos] = item
+
+
+def _sift_up(heap: list[Event], pos: int) -> None:
+    """Restore the heap below ``pos`` after ``heap[pos]`` changed to a later key: move the
+    earlier child up to a leaf, then sift the item back (``heapq._siftup``, fewer comparisons
+    than stopping early)."""
+    end = len(heap)
+    start = pos
+    item = heap[pos]
+    child = 2 * pos + 1
+    while child < end:
+        right = child + 1
+        if right < end and not _before(heap[child], heap[right]):
+            child = right
+        heap[pos] = heap[child]
+        pos = child
+        child = 2 * pos + 1
+    heap[pos] = item
+    _sift_down(heap, start, pos)
+
+
+def _heap_pop(heap: list[Event]) -> Event:
+    """Remove and return the earliest event of a non-empty heap; it is no longer ``queued``."""
+    last = heap.pop()
+    if heap:
+        first = heap[0]
+        heap[0] = last
+        _sift_up(heap, 0)
+    else:
+        first = last
+    first.queued = False
+    return first
 
 
 class Scheduler:
@@ -119,7 +189,7 @@ class Scheduler:
     def __init__(self, start_us: Any = 0) -> None:
         self.now_us: int = _index(start_us)
         self.events_run = 0
-        self._heap: list[tuple[int, int, int, Event]] = []
+        self._heap: list[Event] = []
         self._seq = 0
         self._running = False
 
@@ -211,18 +281,26 @@ class Scheduler:
         """:meth:`call_at` without its checks, for the simulator's own hot paths (the CAN
         network schedules two events per frame) that pass an ``int`` ``t_us >= now_us``."""
         ev = Event(t_us, priority, callback, owner, None)
-        self._seq += 1
-        heapq.heappush(self._heap, (t_us, priority, self._seq, ev))
+        self._push(ev)
         return ev
 
     def _reschedule_trusted(self, ev: Event, t_us: int) -> None:
         """Queue a spent one-shot ``ev`` (it ran, so ``ev.cancelled`` is True) again at ``t_us``,
         as :meth:`_call_at_trusted` with the same callback, priority and owner would, without
-        building a new :class:`Event` (the CAN network's per-frame events)."""
+        building a new :class:`Event` (the CAN network's per-frame events).
+
+        Raises
+        ------
+        SimulationError
+            If ``ev`` is still queued (cancelled before its time came): its place in the heap
+            depends on its time, which must not change there.
+        """
+        if ev.queued:
+            raise SimulationError(f"cannot reschedule {ev.describe_owner()}: it is still queued",
+                                  ev.owner, self.now_us)
         ev.t_us = t_us
         ev.cancelled = False
-        self._seq += 1
-        heapq.heappush(self._heap, (t_us, ev.priority, self._seq, ev))
+        self._push(ev)
 
     def cancel(self, event: Optional[Event]) -> None:
         """Cancel ``event`` (one-shot or periodic). Cancelling twice, after it ran, or ``None``
@@ -232,19 +310,23 @@ class Scheduler:
 
     def _push(self, ev: Event) -> None:
         self._seq += 1
-        heapq.heappush(self._heap, (ev.t_us, ev.priority, self._seq, ev))
+        ev.seq = self._seq
+        ev.queued = True
+        heap = self._heap
+        heap.append(ev)
+        _sift_down(heap, 0, len(heap) - 1)
 
     # -- running ----------------------------------------------------------------------------
     def next_event_us(self) -> int | None:
         """Time of the next pending (non-cancelled) event, µs, or ``None`` if there is none."""
         heap = self._heap
-        while heap and heap[0][3].cancelled:
-            heapq.heappop(heap)
-        return heap[0][0] if heap else None
+        while heap and heap[0].cancelled:
+            _heap_pop(heap)
+        return heap[0].t_us if heap else None
 
     def pending(self) -> int:
         """Number of queued, non-cancelled events."""
-        return sum(1 for entry in self._heap if not entry[3].cancelled)
+        return sum(1 for ev in self._heap if not ev.cancelled)
 
     def run_until(self, t_us: Any) -> None:
         """Run every event with time ``<= t_us`` in order, then set ``now_us = t_us``.
@@ -268,27 +350,29 @@ class Scheduler:
         if self._running:
             raise SimulationError("run_until called from inside a callback", None, self.now_us)
         heap = self._heap
-        pop = heapq.heappop
-        replace = heapq.heapreplace
         self._running = True
         n = 0
         try:
-            while heap and heap[0][0] <= end_us:
-                t, prio, _, ev = heap[0]
+            while heap:
+                ev = heap[0]
+                t = ev.t_us
+                if t > end_us:
+                    break
                 if ev.cancelled:
-                    pop(heap)
+                    _heap_pop(heap)
                     continue
                 self.now_us = t
                 period = ev.period_us
                 if period is None:
-                    pop(heap)
+                    _heap_pop(heap)
                     ev.cancelled = True  # a one-shot event is spent once it runs
                 else:
-                    # the next repetition replaces this entry: one sift instead of pop + push
-                    # (keys are unique, so the order of events is the same either way)
+                    # the next repetition takes this entry's place: one sift instead of pop +
+                    # push (keys are unique, so the order of events is the same either way)
                     ev.t_us = t + period
                     self._seq += 1
-                    replace(heap, (ev.t_us, prio, self._seq, ev))
+                    ev.seq = self._seq
+                    _sift_up(heap, 0)
                 n += 1
                 try:
                     ev.callback(t)
@@ -316,8 +400,7 @@ class Scheduler:
             return False
         # Exactly one event, with run_until's semantics. run_until inlines the same steps in its
         # loop on purpose: it is the simulator's hot loop (a call per event costs ~10 %).
-        heap = self._heap
-        _, prio, _, ev = heapq.heappop(heap)
+        ev = _heap_pop(self._heap)
         self.now_us = t
         if ev.period_us is None:
             ev.cancelled = True

@@ -174,3 +174,99 @@ def test_determinism():
         return out
 
     assert trace() == trace()
+
+
+# -- the heap against a reference it shares no code with --------------------------------------
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+
+class _ReferenceClock:
+    """The ordering contract written as the plainest possible code: a list, scanned for the
+    minimum ``(t_us, priority, insertion number)`` at every step (no heap)."""
+
+    def __init__(self):
+        self.now_us = 0
+        self.items = []           # [t_us, priority, seq, key, period_us, cancelled]
+        self.seq = 0
+
+    def add(self, t_us, priority, key, period_us):
+        self.seq += 1
+        item = [t_us, priority, self.seq, key, period_us, False]
+        self.items.append(item)
+        return item
+
+    def run_until(self, end_us, on_run):
+        while True:
+            live = [i for i in self.items if not i[5]]
+            if not live:
+                break
+            first = min(live, key=lambda i: (i[0], i[1], i[2]))
+            if first[0] > end_us:
+                break
+            self.now_us = first[0]
+            if first[4] is None:
+                first[5] = True
+            else:                     # next repetition queued before the callback, new seq
+                self.seq += 1
+                first[0] += first[4]
+                first[2] = self.seq
+            on_run(first)
+        self.now_us = end_us
+
+
+_op = st.tuples(st.integers(0, 400), st.integers(0, 3), st.sampled_from([None, 7, 50, 130]),
+                st.integers(0, 9))
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(_op, min_size=1, max_size=60), st.lists(st.integers(1, 900), min_size=1, max_size=6))
+def test_order_matches_a_reference_without_a_heap(ops, ends):
+    """Random one-shot and periodic events at colliding times and priorities; callbacks that
+    cancel other events and schedule new ones at the current instant: the scheduler runs the
+    same (key, time) sequence as the reference."""
+    s, ref = Scheduler(), _ReferenceClock()
+    seen, seen_ref = [], []
+    events, ref_items = {}, {}
+
+    def plan(idx, now_us):
+        # what the callback of op ``idx`` does at ``now_us``: cancel op ``c``, maybe add one
+        t_off, prio, period, c = ops[idx]
+        return c, (idx * 7 + now_us) % 5 == 0
+
+    def make_cb(idx):
+        def cb(now_us):
+            seen.append((idx, now_us))
+            c, spawn = plan(idx, now_us)
+            if c in events:
+                s.cancel(events[c])
+            if spawn and len(events) < 200:
+                k = 1000 + len(events)
+                events[k] = s.call_at(now_us, lambda t, k=k: seen.append((k, t)), priority=3)
+        return cb
+
+    def ref_run(item):
+        idx, t = item[3], ref.now_us
+        seen_ref.append((idx, t))
+        if idx >= 1000:
+            return
+        c, spawn = plan(idx, t)
+        if c in ref_items:
+            ref_items[c][5] = True
+        if spawn and len(ref_items) < 200:
+            k = 1000 + len(ref_items)
+            ref_items[k] = ref.add(t, 3, k, None)
+
+    for idx, (t_off, prio, period, _) in enumerate(ops):
+        if period is None:
+            events[idx] = s.call_at(t_off, make_cb(idx), priority=prio)
+        else:
+            events[idx] = s.call_every(period, make_cb(idx), start_us=t_off, priority=prio)
+        ref_items[idx] = ref.add(t_off, prio, idx, period)
+    end = 0
+    for step in ends:
+        end += step
+        s.run_until(end)
+        ref.run_until(end, ref_run)
+        assert seen == seen_ref
+        assert s.now_us == ref.now_us == end
+    assert s.pending() == sum(1 for i in ref.items if not i[5])
