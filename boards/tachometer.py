@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from typing import Callable, ClassVar, Optional
+from typing import Callable, ClassVar, Deque, Optional, Tuple
 
 import can
 
@@ -50,7 +50,7 @@ WINDOWS_TICKS = (4, 10, 20, 50, 100, proto.TACH_MAX_WINDOW_TICKS)
 MIN_COUNTS = 16
 
 
-def speed_window(ring, windows_ticks, min_counts: int) -> tuple[int, int]:
+def speed_window(ring: Deque[int], windows_ticks: Tuple[int, ...], min_counts: int) -> Tuple[int, int]:
     """The firmware's adaptive speed window: ``(w, d)``, the shortest window ``w`` of
     ``windows_ticks`` (ticks, shortest first) over which the count changed by at least
     ``min_counts``, and that change ``d`` [counts]; the longest window the ring holds otherwise

@@ -213,6 +213,8 @@ def _frame_bits_tables(arbitration_id: int, data: bytes) -> int:
 #: data every period, so an hour-long run would otherwise grow it without bound.
 _BITS_CACHE: dict[int, dict[bytes, int]] = {}
 _BITS_PER_ID = 256
+#: the compiled bit-serial kernel, or None without numba (then the tables)
+_BITS_KERNEL: Any = _bitkernel.frame_bits_kernel if _bitkernel.JIT else None
 
 
 def clear_frame_bits_cache() -> None:
@@ -259,9 +261,9 @@ def frame_bits(arbitration_id: int, data: bytes) -> int:
         raise BusError(f"frame_bits: need an 11-bit id and <= 8 data bytes, got "
                        f"id=0x{arbitration_id:X}, {n} bytes")
     bits: int
-    if _bitkernel.JIT:
+    if _BITS_KERNEL is not None:
         v = int.from_bytes(data, "big")
-        bits = int(_bitkernel.frame_bits_kernel(arbitration_id, n, v >> 32, v & 0xFFFFFFFF))
+        bits = int(_BITS_KERNEL(arbitration_id, n, v >> 32, v & 0xFFFFFFFF))
     else:
         bits = _frame_bits_tables(arbitration_id, data)
     if per_id is None:
@@ -636,7 +638,7 @@ class CanNetwork:
         self._busy = False
         self._arb_scheduled = False
         self._npending = 0
-        self._current: Any = None
+        self._current: Optional[_Pending] = None     # the frame on the wire
         #: identifier -> ((bus, enqueue), ...): the attached buses whose acceptance filters pass
         #: that identifier, in attach order, built on first use and dropped whenever a bus is
         #: attached, detached or changes its filters. Delivery then costs per *accepting*
@@ -917,6 +919,7 @@ class CanNetwork:
 
     def _complete(self, now_us: int) -> None:
         pending = self._current
+        assert pending is not None            # the completion event runs only for a frame on the wire
         self._current = None
         sender = pending.bus
         queue = self._queues.get(id(sender))
