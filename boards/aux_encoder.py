@@ -44,7 +44,7 @@ timing and its error bits.
 
 from __future__ import annotations
 
-from typing import Callable, Optional
+from typing import Callable, Final, Optional
 
 import can
 
@@ -58,12 +58,12 @@ from mypy_extensions import mypyc_attr
 
 __all__ = ["AuxEncoder"]
 
-_POS_HALF = 1 << 28
-_POS_REV = 1 << 29
-_POS_BAD = int(proto.PositionFlags.CRC_ERROR | proto.PositionFlags.INVALID)
+_POS_HALF: Final = 1 << 28
+_POS_REV: Final = 1 << 29
+_POS_BAD: Final = int(proto.PositionFlags.CRC_ERROR | proto.PositionFlags.INVALID)
 
 #: the flag as a plain int (an IntFlag attribute and int() per read otherwise)
-_TURNS_UNKNOWN = int(proto.AuxFlags.TURNS_UNKNOWN)
+_TURNS_UNKNOWN: Final = int(proto.AuxFlags.TURNS_UNKNOWN)
 
 
 @mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); may be subclassed

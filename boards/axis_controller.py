@@ -27,7 +27,7 @@ See :data:`PRESET_RATES_ARCSEC_S`. Only SLEW and TRACK come from the paper.
 
 from __future__ import annotations
 
-from typing import Callable, ClassVar, Optional
+from typing import Callable, ClassVar, Final, Optional
 
 import can
 
@@ -70,11 +70,11 @@ class AxisMode:
 
 #: Incremental-encoder counts per axis revolution: 4.608e6 counts/rev (Gurley 8x60, §3.2)
 #: × 24.5 (735:30 friction roller, §2.2).
-QEI_COUNTS_PER_REV = 4_608_000 * 245 // 10
+QEI_COUNTS_PER_REV: Final = 4_608_000 * 245 // 10
 
 #: Slew: Table 1 gives 12.583 rad/s at the motor; / 360.489 (§2.2) = 0.034906 rad/s at the
 #: axis = 7199.748″/s ≈ 2.000°/s (the SDO object 0x2001:1 reads 7199748 milli-″/s).
-SLEW_ARCSEC_S = 12.583 / 360.489 * ARCSEC_PER_RAD
+SLEW_ARCSEC_S: Final = 12.583 / 360.489 * ARCSEC_PER_RAD
 
 #: Preset axis rates, arcsec/s. ``(RA, DEC)`` per preset.
 #:
@@ -88,7 +88,7 @@ SLEW_ARCSEC_S = 12.583 / 360.489 * ARCSEC_PER_RAD
 #: TRACK  15.0         0         §1 "15 arc sec/s" (sidereal 15.041″/s); DEC does not track
 #:                               on an equatorial mount (§2.1)
 #: ====== ============ ========= ===========================================================
-PRESET_RATES_ARCSEC_S = {
+PRESET_RATES_ARCSEC_S: Final = {
     AxisMode.SLEW: (SLEW_ARCSEC_S, SLEW_ARCSEC_S),
     AxisMode.SET: (600.0, 600.0),
     AxisMode.GUIDE: (100.0, 100.0),
@@ -100,19 +100,19 @@ PRESET_RATES_ARCSEC_S = {
 #: plant/parameters.yaml (J = 1760 kg·m² §4, σ2 = 6700 N·m·s/rad Table 2 low preload,
 #: N = 360.489, assumed R = 1.2 Ω, L = 1.5 mH, K = 0.35 N·m/A, rotor inertia 2 × 3e-4 kg·m²,
 #: p = 0.25, 24 V, 5 ms, dead time Δt). host/network.py should compute the gains per axis.
-DEFAULT_KP = 4.17e-4      # duty per (″/s)
-DEFAULT_KI = 4.63e-5      # duty per (″/s) per tick
+DEFAULT_KP: Final = 4.17e-4      # duty per (″/s)
+DEFAULT_KI: Final = 4.63e-5      # duty per (″/s) per tick
 
 STATUS_LIMIT, STATUS_ANTIWINDUP, STATUS_OVERCURRENT, STATUS_FAULT = (
     int(f) for f in (proto.AxisStatusFlags.LIMIT_STOP, proto.AxisStatusFlags.ANTI_WINDUP,
                      proto.AxisStatusFlags.OVER_CURRENT, proto.AxisStatusFlags.FAULT))
-POS_INVALID_FLAG = int(proto.PositionFlags.INVALID)
-POS_LOW_FLAG = int(proto.PositionFlags.LOW_LIMIT)
-POS_HIGH_FLAG = int(proto.PositionFlags.HIGH_LIMIT)
-POS_LOW_NEAR_FLAG = int(proto.PositionFlags.LOW_NEAR)
-POS_HIGH_NEAR_FLAG = int(proto.PositionFlags.HIGH_NEAR)
-LIMIT_LOW_NEAR_FLAG = int(proto.LimitFlags.LOW_NEAR)
-LIMIT_HIGH_NEAR_FLAG = int(proto.LimitFlags.HIGH_NEAR)
+POS_INVALID_FLAG: Final = int(proto.PositionFlags.INVALID)
+POS_LOW_FLAG: Final = int(proto.PositionFlags.LOW_LIMIT)
+POS_HIGH_FLAG: Final = int(proto.PositionFlags.HIGH_LIMIT)
+POS_LOW_NEAR_FLAG: Final = int(proto.PositionFlags.LOW_NEAR)
+POS_HIGH_NEAR_FLAG: Final = int(proto.PositionFlags.HIGH_NEAR)
+LIMIT_LOW_NEAR_FLAG: Final = int(proto.LimitFlags.LOW_NEAR)
+LIMIT_HIGH_NEAR_FLAG: Final = int(proto.LimitFlags.HIGH_NEAR)
 LIMIT_LOW, LIMIT_HIGH, LIMIT_INVALID = (
     int(f) for f in (proto.LimitFlags.LOW_SOFT_LIMIT, proto.LimitFlags.HIGH_SOFT_LIMIT,
                      proto.LimitFlags.POSITION_INVALID))

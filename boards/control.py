@@ -10,7 +10,7 @@ Ki in duty per (″/s) per 5 ms tick.
 
 from __future__ import annotations
 
-from typing import Callable, Dict, Tuple
+from typing import Callable, Dict, Final, Tuple
 
 __all__ = ["IncrementalPI", "DRIVE_LAWS", "drive_proportional", "drive_constant_counter",
            "register_drive_law"]
@@ -120,7 +120,7 @@ def drive_constant_counter(u: float, counter_fraction: float) -> Tuple[float, fl
     return (p, a)
 
 
-DRIVE_LAWS: Dict[str, DriveLaw] = {
+DRIVE_LAWS: Final[Dict[str, DriveLaw]] = {
     "proportional": drive_proportional,
     "constant_counter": drive_constant_counter,
 }

@@ -24,7 +24,7 @@ sidereal time (RA = LST − HA), and the paper names none.
 
 from __future__ import annotations
 
-from typing import Callable, Optional
+from typing import Callable, Final, Optional
 
 import can
 
@@ -37,10 +37,10 @@ from mypy_extensions import mypyc_attr
 
 __all__ = ["DisplayUnit", "format_hms", "format_dms", "STALE_TEXT"]
 
-_POS_REV = 1 << 29
-_ARCSEC_PER_POS_COUNT = ARCSEC_PER_REV / _POS_REV
-_POSITION_INVALID = int(proto.PositionFlags.INVALID)    # a plain int: tested for every frame
-STALE_TEXT = {"ha": "--:--:--.-", "dec": "---:--:--", "rate": "------", "mode": "----"}
+_POS_REV: Final = 1 << 29
+_ARCSEC_PER_POS_COUNT: Final = ARCSEC_PER_REV / _POS_REV
+_POSITION_INVALID: Final = int(proto.PositionFlags.INVALID)    # a plain int: tested for every frame
+STALE_TEXT: Final = {"ha": "--:--:--.-", "dec": "---:--:--", "rate": "------", "mode": "----"}
 
 
 def format_hms(hours: float) -> str:

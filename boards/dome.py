@@ -42,7 +42,7 @@ the optical axis from the dome centre), the shutter, the drive's current and the
 from __future__ import annotations
 
 import math
-from typing import Callable, Optional
+from typing import Callable, Final, Optional
 
 import can
 
@@ -57,13 +57,13 @@ from mypy_extensions import mypyc_attr
 __all__ = ["DomeController", "slit_azimuth_deg", "ARRIVE_TOL_DEG", "PROFILE_DECEL_FRACTION"]
 
 #: A move ends when the slit is within this of its target, deg (assumed: 1/20 of the deadband).
-ARRIVE_TOL_DEG = 0.1
+ARRIVE_TOL_DEG: Final = 0.1
 #: The braking profile uses this fraction of the acceleration limit, so the rate ramp (at the
 #: full limit) can follow the profile one period late without overshooting (assumed).
-PROFILE_DECEL_FRACTION = 0.8
-_POS_HALF = 1 << 28
-_DEG_PER_POS_COUNT = 360.0 / (1 << 29)
-_POSITION_INVALID = int(proto.PositionFlags.INVALID)    # a plain int: tested for every frame
+PROFILE_DECEL_FRACTION: Final = 0.8
+_POS_HALF: Final = 1 << 28
+_DEG_PER_POS_COUNT: Final = 360.0 / (1 << 29)
+_POSITION_INVALID: Final = int(proto.PositionFlags.INVALID)    # a plain int: tested for every frame
 
 
 def slit_azimuth_deg(ha_deg: float, dec_deg: float, latitude_deg: float) -> float:

@@ -25,7 +25,7 @@ bits is detected as well.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, List, Optional, Sequence
+from typing import Callable, Final, List, Optional, Sequence
 
 __all__ = [
     "CRC_POLY",
@@ -43,11 +43,11 @@ __all__ = [
     "EnDatMaster",
 ]
 
-CRC_POLY = 0x0B          # x^5 + x^3 + x + 1 (x^5 implicit)
-CRC_BITS = 5
-CRC_PRESET = 0x1F
-MODE_SEND_POSITION = 0b000111   # EnDat "encoder send position values" (mode bits + complement)
-POSITION_BITS = 29              # RCN 829, §3.2
+CRC_POLY: Final = 0x0B          # x^5 + x^3 + x + 1 (x^5 implicit)
+CRC_BITS: Final = 5
+CRC_PRESET: Final = 0x1F
+MODE_SEND_POSITION: Final = 0b000111   # EnDat "encoder send position values" (mode bits + complement)
+POSITION_BITS: Final = 29              # RCN 829, §3.2
 
 
 def frame_bits(position_bits: int = POSITION_BITS) -> int:
@@ -56,7 +56,7 @@ def frame_bits(position_bits: int = POSITION_BITS) -> int:
 
 
 #: Bits of the RCN 829's position frame (37).
-FRAME_BITS = frame_bits()
+FRAME_BITS: Final = frame_bits()
 
 
 def crc5(bits: Sequence[int]) -> int:
@@ -85,7 +85,7 @@ def _crc_register(bits: Sequence[int], preset: int) -> int:
     return reg
 
 
-_CRC_TABLES: dict = {}
+_CRC_TABLES: Final[dict] = {}
 
 
 def _crc_tables(nbits: int) -> tuple:
@@ -144,7 +144,7 @@ def crc5_word(word: int, nbits: int) -> int:
 
 
 #: 5-bit reversal: the CRC is sent MSB first, the frame word holds bit i = i-th bit sent
-_REV5 = tuple(int(f"{v:05b}"[::-1], 2) for v in range(32))
+_REV5: Final = tuple(int(f"{v:05b}"[::-1], 2) for v in range(32))
 
 
 def build_position_word(position: int, *, f1: int = 0, f2: int = 0,

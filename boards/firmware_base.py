@@ -45,7 +45,7 @@ enters PRE-OPERATIONAL). An NMT reset node is ``reset("software")``.
 
 from __future__ import annotations
 
-from typing import Any, ClassVar, Dict, List, Optional
+from typing import Any, ClassVar, Dict, Final, List, Optional
 
 import can
 from mypy_extensions import mypyc_attr
@@ -63,35 +63,35 @@ __all__ = ["Firmware", "Board", "RESET_CAUSES", "STATE_BOOT", "STATE_OPERATIONAL
            "FAULT_LIMIT_STOP", "FAULT_WATCHDOG", "FAULT_STEP_LOSS", "FAULT_REFUSED",
            "FAULT_BRAKE_CUT", "FAULT_READER_LOST", "FAULT_HOST_TIMEOUT", "FAULT_CLEARED", "FAULT_OVERSPEED"]
 
-RESET_CAUSES: Dict[str, int] = {"power_on": 0, "watchdog": 1, "software": 2}
-_CAUSE_NAMES = {v: k for k, v in RESET_CAUSES.items()}
+RESET_CAUSES: Final[Dict[str, int]] = {"power_on": 0, "watchdog": 1, "software": 2}
+_CAUSE_NAMES: Final = {v: k for k, v in RESET_CAUSES.items()}
 
 STATE_BOOT, STATE_OPERATIONAL, STATE_FAULT, STATE_STOPPED = 0, 1, 2, 3
 #: Longest background-loop period of a board whose CAN controller is polled (no receive
 #: interrupt on the bus), µs: the axis controllers' 5 ms tick (§3.3), short enough for the MCP2515's
 #: two receive buffers at the bus loads of the paper's networks (assumed; see Board.__init__).
-POLL_PERIOD_US = 5_000
+POLL_PERIOD_US: Final = 5_000
 
 FAULT_MALFORMED, FAULT_CRC, FAULT_OVERCURRENT, FAULT_LIMIT_STOP, FAULT_WATCHDOG = 1, 2, 3, 4, 5
-FAULT_STEP_LOSS = int(proto.FaultCode.STEP_LOSS)
-FAULT_REFUSED = int(proto.FaultCode.COMMAND_REFUSED)
-FAULT_BRAKE_CUT = int(proto.FaultCode.BRAKE_CUT)
-FAULT_READER_LOST = int(proto.FaultCode.READER_LOST)
-FAULT_HOST_TIMEOUT = int(proto.FaultCode.HOST_TIMEOUT)
-FAULT_CLEARED = int(proto.FaultCode.FAULT_CLEARED)
-FAULT_OVERSPEED = int(proto.FaultCode.OVERSPEED)
+FAULT_STEP_LOSS: Final = int(proto.FaultCode.STEP_LOSS)
+FAULT_REFUSED: Final = int(proto.FaultCode.COMMAND_REFUSED)
+FAULT_BRAKE_CUT: Final = int(proto.FaultCode.BRAKE_CUT)
+FAULT_READER_LOST: Final = int(proto.FaultCode.READER_LOST)
+FAULT_HOST_TIMEOUT: Final = int(proto.FaultCode.HOST_TIMEOUT)
+FAULT_CLEARED: Final = int(proto.FaultCode.FAULT_CLEARED)
+FAULT_OVERSPEED: Final = int(proto.FaultCode.OVERSPEED)
 #: FAULT MALFORMED_FRAME rate limit (token bucket): a burst of this many, then this many per
 #: second (assumed; found by the 10⁶-frame fuzz: one FAULT per malformed frame let a flood of
 #: bad frames fill a board's own TX FIFO, so its LIMIT frames waited and DEC ran 0.36° past
 #: its limit). Every malformed frame is still counted in ``malformed_frames``.
-MALFORMED_FAULT_BURST = 4
-MALFORMED_FAULT_RATE_HZ = 10
+MALFORMED_FAULT_BURST: Final = 4
+MALFORMED_FAULT_RATE_HZ: Final = 10
 #: A fault condition (:meth:`Board.fault_condition`) is cleared after being absent this long, µs
 #: (assumed: 1 s, see boards/safety.py ``fault_clear_hold_us``).
-FAULT_CLEAR_HOLD_US = 1_000_000
+FAULT_CLEAR_HOLD_US: Final = 1_000_000
 
 #: NMT states (canopen's names) in which the firmware's motion commands are honoured.
-_OPERATIONAL = "OPERATIONAL"
+_OPERATIONAL: Final = "OPERATIONAL"
 
 
 @mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); boards subclass it

@@ -44,7 +44,7 @@ boards/safety.py) and changes nothing.
 from __future__ import annotations
 
 import math
-from typing import Callable, Optional
+from typing import Callable, Final, Optional
 
 import can
 
@@ -59,14 +59,14 @@ from mypy_extensions import mypyc_attr
 __all__ = ["FocusController", "STEP_RATE_HZ", "TRAVEL_HALFSTEPS", "HALFSTEP_UM",
            "HALFSTEPS_PER_REV", "ENCODER_COUNTS_PER_REV"]
 
-STEP_RATE_HZ = 400            # assumed
-TRAVEL_HALFSTEPS = 800        # ±5 mm / 6.25 µm
-HALFSTEP_UM = 6.25            # §3.2
-HALFSTEPS_PER_REV = 400       # 360° / 0.9° per half step (§3.2)
+STEP_RATE_HZ: Final = 400            # assumed
+TRAVEL_HALFSTEPS: Final = 800        # ±5 mm / 6.25 µm
+HALFSTEP_UM: Final = 6.25            # §3.2
+HALFSTEPS_PER_REV: Final = 400       # 360° / 0.9° per half step (§3.2)
 #: Motor encoder counts per motor revolution (assumed: 500 lines × 4 in the QEI's x4 mode; the
 #: paper names no resolution; host/network.py passes plant/parameters.yaml's value).
-ENCODER_COUNTS_PER_REV = 2000
-STEP_LOSS_FAULT_MIN_INTERVAL_US = 1_000_000
+ENCODER_COUNTS_PER_REV: Final = 2000
+STEP_LOSS_FAULT_MIN_INTERVAL_US: Final = 1_000_000
 
 F_MOVING, F_HOLDING, F_INDEX, F_POWER_OFF, F_STEP_LOSS = (
     int(f) for f in (proto.FocusFlags.MOVING, proto.FocusFlags.HOLDING, proto.FocusFlags.INDEX_SEEN,

@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 from math import floor as _floor, isfinite as _isfinite
 from collections import deque
-from typing import Any, Callable, ClassVar, Deque, Dict, Optional
+from typing import Any, Callable, ClassVar, Deque, Dict, Final, Optional
 
 import can
 
@@ -40,9 +40,9 @@ __all__ = [
 
 #: dsPIC30F3011 instruction clock assumed for the duty resolution, Hz (30 MIPS, the device's
 #: maximum; the paper does not state the clock).
-FCY_HZ = 30_000_000
+FCY_HZ: Final = 30_000_000
 #: PWM frequency assumed, Hz (above audibility; the paper does not state it).
-PWM_FREQUENCY_HZ = 20_000
+PWM_FREQUENCY_HZ: Final = 20_000
 
 
 class Timer:
@@ -300,12 +300,12 @@ class Adc:
 
 #: python-can bus classes whose filters act before the receive queue (SimBus: on delivery;
 #: SocketCAN: kernel filters), so ``set_filters`` is a true hardware acceptance filter there.
-FILTER_BEFORE_QUEUE_BUSES = ("SimBus", "SocketcanBus")
+FILTER_BEFORE_QUEUE_BUSES: Final = ("SimBus", "SocketcanBus")
 
 
 #: Hardware transmit buffers of the boards' CAN controllers: TXB0..TXB2 on the MCP2515 (DS21801
 #: §3.1) and on the PIC18F4480's ECAN module in mode 0 (DS39637 §24.2).
-TX_BUFFERS = 3
+TX_BUFFERS: Final = 3
 
 
 def tx_priority(arbitration_id: int) -> int:
@@ -696,7 +696,7 @@ __all__.append("SsiMaster")
 
 
 # Background polling priority used by boards whose bus has no receive interrupt.
-POLL_PRIORITY = PRIO_BACKGROUND
+POLL_PRIORITY: Final = PRIO_BACKGROUND
 
 
 from boards.endat import EnDatMaster  # noqa: E402  (defined with its protocol)

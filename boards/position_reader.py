@@ -32,7 +32,7 @@ back inside by ``hysteresis_arcsec`` (10″).
 
 from __future__ import annotations
 
-from typing import Callable, Optional
+from typing import Callable, Final, Optional
 
 import can
 
@@ -49,17 +49,17 @@ from mypy_extensions import mypyc_attr
 
 __all__ = ["PositionReader", "DEFAULT_LIMITS_DEG", "POS_LOW", "POS_HIGH", "POS_CRC", "POS_INVALID"]
 
-COUNTS_PER_REV = 1 << POSITION_BITS
-ARCSEC_PER_COUNT = ARCSEC_PER_REV / COUNTS_PER_REV
+COUNTS_PER_REV: Final = 1 << POSITION_BITS
+ARCSEC_PER_COUNT: Final = ARCSEC_PER_REV / COUNTS_PER_REV
 
 #: Assumed soft limits per axis (0 RA, 1 DEC), degrees of axis angle.
-DEFAULT_LIMITS_DEG = {0: (-95.0, 95.0), 1: (-40.0, 110.0)}
+DEFAULT_LIMITS_DEG: Final = {0: (-95.0, 95.0), 1: (-40.0, 110.0)}
 
 POS_LOW, POS_HIGH, POS_CRC, POS_INVALID = 0x01, 0x02, 0x04, 0x08
 POS_LOW_NEAR, POS_HIGH_NEAR = 0x10, 0x20
 LIMIT_LOW, LIMIT_HIGH, LIMIT_INVALID = 0x01, 0x02, 0x04
 LIMIT_LOW_NEAR, LIMIT_HIGH_NEAR = 0x08, 0x10
-CRC_FAULT_MIN_INTERVAL_US = 1_000_000
+CRC_FAULT_MIN_INTERVAL_US: Final = 1_000_000
 
 
 @mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); may be subclassed

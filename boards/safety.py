@@ -29,7 +29,7 @@ slew on the full plant).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional
+from typing import Final, Optional
 
 from bus.protocol import VELOCITY_MAX_MARCSEC_S
 
@@ -41,14 +41,14 @@ __all__ = ["SafetyLimits", "DEFAULT_SAFETY", "RECOMMENDED_HOST_WATCHDOG_US",
 REFUSE_GAIN, REFUSE_RATE, REFUSE_DUTY, REFUSE_READER, REFUSE_TRAVEL = 1, 2, 3, 5, 6
 #: Reason 4: motion toward an active soft limit (issue 10: was FAULT LIMIT_STOP with detail =
 #: command, the second meaning of code 4).
-REFUSE_LIMIT = 4
+REFUSE_LIMIT: Final = 4
 #: Reason 7 (issue 12, dome): a GOTO azimuth outside 0 .. 359.99° (centi-degrees 0 .. 35999).
-REFUSE_AZIMUTH = 7
+REFUSE_AZIMUTH: Final = 7
 
 #: Host watchdog: the host sends its CiA heartbeat (0x710) every second, so 2 s = two missed host
 #: heartbeats (assumed; CiA-301 practice is a consumer time of 1.5-3 heartbeat periods). The
 #: default of :attr:`SafetyLimits.host_watchdog_us`.
-RECOMMENDED_HOST_WATCHDOG_US = 2_000_000
+RECOMMENDED_HOST_WATCHDOG_US: Final = 2_000_000
 
 
 @dataclass(frozen=True)
@@ -158,4 +158,4 @@ class SafetyLimits:
         return v * v / (2.0 * self.brake_decel_arcsec_s2) + v * self.brake_latency_us * 1e-6
 
 
-DEFAULT_SAFETY = SafetyLimits()
+DEFAULT_SAFETY: Final = SafetyLimits()

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from typing import Callable, ClassVar, Deque, Optional, Tuple
+from typing import Callable, ClassVar, Deque, Final, Optional, Tuple
 
 import can
 
@@ -45,9 +45,9 @@ from mypy_extensions import mypyc_attr
 __all__ = ["Tachometer", "QeiSpeedBoard", "WINDOWS_TICKS", "MIN_COUNTS", "speed_window"]
 
 #: Candidate speed windows, 5 ms ticks (20 ms .. 1 s), shortest first (assumed, see module doc).
-WINDOWS_TICKS = (4, 10, 20, 50, 100, proto.TACH_MAX_WINDOW_TICKS)
+WINDOWS_TICKS: Final = (4, 10, 20, 50, 100, proto.TACH_MAX_WINDOW_TICKS)
 #: Counts a window must hold before it is used (assumed: 1/16 quantisation of the reading).
-MIN_COUNTS = 16
+MIN_COUNTS: Final = 16
 
 
 def speed_window(ring: Deque[int], windows_ticks: Tuple[int, ...], min_counts: int) -> Tuple[int, int]:

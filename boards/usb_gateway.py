@@ -39,7 +39,7 @@ receive path; the report layout carries 11-bit data frames of 0..8 bytes only).
 from __future__ import annotations
 
 from collections import deque
-from typing import ClassVar, Deque, Optional
+from typing import ClassVar, Deque, Final, Optional
 
 import can
 
@@ -55,8 +55,8 @@ __all__ = ["UsbGateway", "RX_QUEUE_FRAMES"]
 
 #: CAN→PC queue depth, frames (assumed: 32 slots of 15 bytes = 480 B of the PIC18F4550's 2 KB
 #: RAM, beside 1 KB of USB buffer RAM; 8 ms of the 4-frames-per-ms USB rate).
-RX_QUEUE_FRAMES = 32
-_U32 = (1 << 32) - 1
+RX_QUEUE_FRAMES: Final = 32
+_U32: Final = (1 << 32) - 1
 
 
 @mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); may be subclassed

@@ -23,7 +23,7 @@ Sources: USB 2.0 §5.7 (interrupt transfers, 64-byte maximum packet at full spee
 
 from __future__ import annotations
 
-from typing import Callable, Optional
+from typing import Callable, Final, Optional
 
 from bus.usb_link import FRAME_PERIOD_US
 
@@ -31,18 +31,18 @@ __all__ = ["UsbHidInterface", "REPORT_DESCRIPTOR", "VENDOR_ID", "PRODUCT_ID", "F
            "MAX_PACKET_SIZE"]
 
 #: wMaxPacketSize of both interrupt endpoints, bytes (full speed maximum; paper §3.4: 64 bytes).
-MAX_PACKET_SIZE = 64
+MAX_PACKET_SIZE: Final = 64
 #: USB vendor id: Microchip Technology (assumed: the PIC18F4550 board keeps Microchip's id).
-VENDOR_ID = 0x04D8
+VENDOR_ID: Final = 0x04D8
 #: USB product id (assumed: 0x003F, Microchip's custom-HID demo id, which firmware built on
 #: Microchip's HID stack keeps unless a product id is bought).
-PRODUCT_ID = 0x003F
-MANUFACTURER = "schmidt-fil"
-PRODUCT = "ARIES Schmidt CAN-USB gateway (emulated PIC18F4550)"
+PRODUCT_ID: Final = 0x003F
+MANUFACTURER: Final = "schmidt-fil"
+PRODUCT: Final = "ARIES Schmidt CAN-USB gateway (emulated PIC18F4550)"
 
 #: HID report descriptor: vendor page 0xFF00, one application collection, 64-byte Input,
 #: Output and Feature reports of 8-bit values, no report IDs (HID 1.11 §6.2.2).
-REPORT_DESCRIPTOR = bytes([
+REPORT_DESCRIPTOR: Final = bytes([
     0x06, 0x00, 0xFF,  # Usage Page (Vendor Defined 0xFF00)
     0x09, 0x01,        # Usage (0x01)
     0xA1, 0x01,        # Collection (Application)

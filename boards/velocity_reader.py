@@ -28,7 +28,7 @@ the 2°/s slew uses 20 ms (12 544 counts).
 
 from __future__ import annotations
 
-from typing import Callable, ClassVar, Optional
+from typing import Callable, ClassVar, Final, Optional
 
 import can
 
@@ -41,9 +41,9 @@ from mypy_extensions import mypyc_attr
 __all__ = ["AxisVelocityReader", "WINDOWS_TICKS", "MIN_COUNTS"]
 
 #: Candidate rate windows, 10 ms ticks (20 ms .. 1 s), shortest first (assumed, see module doc).
-WINDOWS_TICKS = (2, 5, 10, 20, 50, proto.VEL_MAX_WINDOW_TICKS)
+WINDOWS_TICKS: Final = (2, 5, 10, 20, 50, proto.VEL_MAX_WINDOW_TICKS)
 #: Counts a window must hold before it is used (assumed: ≤ 0.4 % quantisation of the reading).
-MIN_COUNTS = 256
+MIN_COUNTS: Final = 256
 
 
 @mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); may be subclassed

@@ -24,7 +24,7 @@ Not emulated: sensor faults, heating of the rain sensor, averaging of the wind o
 
 from __future__ import annotations
 
-from typing import Callable, Optional
+from typing import Callable, Final, Optional
 
 import can
 
@@ -36,7 +36,7 @@ from mypy_extensions import mypyc_attr
 
 __all__ = ["WeatherStation"]
 
-_VREF_V = 5.0
+_VREF_V: Final = 5.0
 
 
 @mypyc_attr(allow_interpreted_subclasses=True)   # compiled (bus/_native.py); may be subclassed

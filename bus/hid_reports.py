@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import struct
 from enum import IntEnum, IntFlag
-from typing import NamedTuple, Sequence
+from typing import Final, NamedTuple, Sequence
 
 from bus.errors import FrameError
 
@@ -36,24 +36,24 @@ __all__ = [
 
 #: Bytes of every report (paper §3.4: "A total of 64 bytes are exchanged"; full-speed interrupt
 #: endpoints carry at most 64 bytes per 1 ms frame, USB 2.0 §5.7.3).
-REPORT_SIZE = 64
-_S_HEADER = struct.Struct("<BBBB")
-_S_SLOT = struct.Struct("<HB8sI")
+REPORT_SIZE: Final = 64
+_S_HEADER: Final = struct.Struct("<BBBB")
+_S_SLOT: Final = struct.Struct("<HB8sI")
 #: CAN frames per report, each way: (64 − 4 header) // 15-byte slot = 4.
-FRAMES_PER_REPORT = (REPORT_SIZE - _S_HEADER.size) // _S_SLOT.size
+FRAMES_PER_REPORT: Final = (REPORT_SIZE - _S_HEADER.size) // _S_SLOT.size
 #: the slots of a report with n frames, and the whole report (header + n slots, zero padded
 #: to REPORT_SIZE), as one precompiled Struct each, n = 0..FRAMES_PER_REPORT
-_S_SLOTS = tuple(struct.Struct("<" + "HB8sI" * n) for n in range(FRAMES_PER_REPORT + 1))
-_S_REPORT = tuple(struct.Struct("<BBBB" + "HB8sI" * n + f"{REPORT_SIZE - 4 - 15 * n}x")
+_S_SLOTS: Final = tuple(struct.Struct("<" + "HB8sI" * n) for n in range(FRAMES_PER_REPORT + 1))
+_S_REPORT: Final = tuple(struct.Struct("<BBBB" + "HB8sI" * n + f"{REPORT_SIZE - 4 - 15 * n}x")
                   for n in range(FRAMES_PER_REPORT + 1))
 #: Acceptance filters the gateway holds (assumed: the MCP2515 CAN controller beside the
 #: PIC18F4550 has six acceptance filters; here each has its own mask).
-MAX_FILTERS = 6
-KIND_OUT = 0x01
-KIND_IN = 0x81
-STATUS_VERSION = 1
-CMD_SET_FILTERS = 0x01
-CMD_CLEAR_COUNTERS = 0x02
+MAX_FILTERS: Final = 6
+KIND_OUT: Final = 0x01
+KIND_IN: Final = 0x81
+STATUS_VERSION: Final = 1
+CMD_SET_FILTERS: Final = 0x01
+CMD_CLEAR_COUNTERS: Final = 0x02
 
 
 class InFlags(IntFlag):
@@ -138,7 +138,7 @@ class Status(NamedTuple):
     last_malformed: int = 0     #: MalformedReason of the last refused report
 
 
-_S_STATUS = struct.Struct("<BBBBIIIIIIIIHHHHB")
+_S_STATUS: Final = struct.Struct("<BBBBIIIIIIIIHHHHB")
 _U32, _U16 = (1 << 32) - 1, (1 << 16) - 1
 
 

@@ -54,7 +54,7 @@ import heapq
 import random
 from collections import deque
 
-from typing import Any, Optional
+from typing import Any, Final, Optional
 
 import can
 
@@ -70,19 +70,19 @@ __all__ = ["CanNetwork", "TxBuffers", "get_network", "frame_bits", "clear_frame_
 #: Fault-confinement states (ISO 11898-1 §12.1).
 ERROR_ACTIVE, ERROR_PASSIVE, BUS_OFF = "error-active", "error-passive", "bus-off"
 #: Bits of an active error frame incl. intermission: 6 flag + 6 echoed + 8 delimiter + 3 IFS.
-ERROR_FRAME_BITS = 23
+ERROR_FRAME_BITS: Final = 23
 #: Suspend-transmission time of an error-passive transmitter, bits (ISO 11898-1).
-SUSPEND_BITS = 8
+SUSPEND_BITS: Final = 8
 #: Bus-off recovery: this many occurrences of 11 consecutive recessive bits.
-RECOVERY_OCCURRENCES = 128
+RECOVERY_OCCURRENCES: Final = 128
 
 #: Width of the windows over which ``stats()["peak_load_pct"]`` is taken, µs.
-WINDOW_US = 100_000
+WINDOW_US: Final = 100_000
 
 # ------------------------------------------------------------------------------------------------
 # Bit-exact frame length
 # ------------------------------------------------------------------------------------------------
-_CRC15_POLY = 0x4599
+_CRC15_POLY: Final = 0x4599
 
 
 def _make_crc_table() -> tuple:
@@ -96,7 +96,7 @@ def _make_crc_table() -> tuple:
     return tuple(table)
 
 
-_CRC_TABLE = _make_crc_table()
+_CRC_TABLE: Final = _make_crc_table()
 
 
 def _crc_step8(crc: int, byte: int) -> int:
@@ -140,7 +140,7 @@ def _make_stuff_table() -> bytes:
     return bytes(table)
 
 
-_STUFF_TABLE = _make_stuff_table()
+_STUFF_TABLE: Final = _make_stuff_table()
 
 # 16-bit versions (composed from the 8-bit tables, built on first use: ~0.1 s, 640 kB)
 _CRC16: Any = None
@@ -211,10 +211,10 @@ def _frame_bits_tables(arbitration_id: int, data: bytes) -> int:
 #: tuple built; ``functools.lru_cache`` cost ≈ 3 % of the ``full`` network's time, session 8).
 #: At most :data:`_BITS_PER_ID` payloads are kept per identifier: status frames change their
 #: data every period, so an hour-long run would otherwise grow it without bound.
-_BITS_CACHE: dict[int, dict[bytes, int]] = {}
-_BITS_PER_ID = 256
+_BITS_CACHE: Final[dict[int, dict[bytes, int]]] = {}
+_BITS_PER_ID: Final = 256
 #: the compiled bit-serial kernel, or None without numba (then the tables)
-_BITS_KERNEL: Any = _bitkernel.frame_bits_kernel if _bitkernel.JIT else None
+_BITS_KERNEL: Final[Any] = _bitkernel.frame_bits_kernel if _bitkernel.JIT else None
 
 
 def clear_frame_bits_cache() -> None:
@@ -277,7 +277,7 @@ def frame_bits(arbitration_id: int, data: bytes) -> int:
 # ------------------------------------------------------------------------------------------------
 # The network
 # ------------------------------------------------------------------------------------------------
-_REGISTRY: dict[str, "CanNetwork"] = {}
+_REGISTRY: Final[dict[str, "CanNetwork"]] = {}
 
 
 def get_network(channel: str) -> "CanNetwork":
@@ -298,10 +298,10 @@ def get_network(channel: str) -> "CanNetwork":
 
 
 #: The slots of ``can.Message`` that :func:`_rx_message` fills (python-can 4.x).
-_MESSAGE_SLOTS = frozenset({"timestamp", "arbitration_id", "is_extended_id", "is_remote_frame",
+_MESSAGE_SLOTS: Final = frozenset({"timestamp", "arbitration_id", "is_extended_id", "is_remote_frame",
                             "is_error_frame", "channel", "dlc", "data", "is_fd", "is_rx",
                             "bitrate_switch", "error_state_indicator"})
-_Message = can.Message
+_Message: Final = can.Message
 
 
 def _rx_message_fast(timestamp: float, arbitration_id: int, data: bytes, channel, is_rx: bool):
@@ -330,7 +330,7 @@ def _rx_message_init(timestamp: float, arbitration_id: int, data: bytes, channel
 #: is_extended_id=False, data=bytearray(data), channel=..., is_rx=...)``; built without
 #: ``__init__``'s argument handling (half the cost) when python-can's slots are the known ones,
 #: else by the constructor (tests/test_bus_network.py checks the two agree).
-_rx_message = (_rx_message_fast if set(getattr(_Message, "__slots__", ())) - {"__weakref__"} == _MESSAGE_SLOTS
+_rx_message: Final = (_rx_message_fast if set(getattr(_Message, "__slots__", ())) - {"__weakref__"} == _MESSAGE_SLOTS
                else _rx_message_init)
 
 

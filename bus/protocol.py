@@ -44,7 +44,7 @@ import struct
 from enum import IntEnum, IntFlag
 from functools import lru_cache
 from pathlib import Path
-from typing import Any, Callable, NamedTuple
+from typing import Any, Callable, Final, NamedTuple
 
 from bus.errors import EncodeError, MalformedFrame
 from bus.units import Q15_FULL_SCALE  # noqa: F401  (re-exported: bus.protocol.Q15_FULL_SCALE)
@@ -85,25 +85,25 @@ class NodeId(IntEnum):
     VEL_DEC = 0x11     #: DEC axis velocity reader
 
 
-NODE_RA_AXIS = NodeId.RA_AXIS
-NODE_DEC_AXIS = NodeId.DEC_AXIS
-NODE_RA_READER = NodeId.RA_READER
-NODE_DEC_READER = NodeId.DEC_READER
-NODE_FOCUS = NodeId.FOCUS
-NODE_HOST = NodeId.HOST
+NODE_RA_AXIS: Final = NodeId.RA_AXIS
+NODE_DEC_AXIS: Final = NodeId.DEC_AXIS
+NODE_RA_READER: Final = NodeId.RA_READER
+NODE_DEC_READER: Final = NodeId.DEC_READER
+NODE_FOCUS: Final = NodeId.FOCUS
+NODE_HOST: Final = NodeId.HOST
 
-AXIS_NODES = (NodeId.RA_AXIS, NodeId.DEC_AXIS)
-READER_NODES = (NodeId.RA_READER, NodeId.DEC_READER)
+AXIS_NODES: Final = (NodeId.RA_AXIS, NodeId.DEC_AXIS)
+READER_NODES: Final = (NodeId.RA_READER, NodeId.DEC_READER)
 #: The room nodes of issue 12 (display unit, dome controller, weather station).
-ROOM_NODES = (NodeId.DISPLAY, NodeId.DOME, NodeId.WEATHER)
-TACH_NODES = (NodeId.TACH_RA_1, NodeId.TACH_RA_2, NodeId.TACH_DEC_1, NodeId.TACH_DEC_2)
-AUX_NODES = (NodeId.AUX_RA, NodeId.AUX_DEC)
-VEL_NODES = (NodeId.VEL_RA, NodeId.VEL_DEC)
+ROOM_NODES: Final = (NodeId.DISPLAY, NodeId.DOME, NodeId.WEATHER)
+TACH_NODES: Final = (NodeId.TACH_RA_1, NodeId.TACH_RA_2, NodeId.TACH_DEC_1, NodeId.TACH_DEC_2)
+AUX_NODES: Final = (NodeId.AUX_RA, NodeId.AUX_DEC)
+VEL_NODES: Final = (NodeId.VEL_RA, NodeId.VEL_DEC)
 #: Every board node of the protocol (a network built from a scenario may use a subset:
 #: ``boards.registry.NETWORKS``).
-BOARD_NODES = (NodeId.RA_AXIS, NodeId.DEC_AXIS, NodeId.RA_READER, NodeId.DEC_READER, NodeId.FOCUS,
+BOARD_NODES: Final = (NodeId.RA_AXIS, NodeId.DEC_AXIS, NodeId.RA_READER, NodeId.DEC_READER, NodeId.FOCUS,
                *TACH_NODES, *AUX_NODES, *ROOM_NODES, *VEL_NODES)
-ALL_NODES = BOARD_NODES + (NodeId.HOST,)
+ALL_NODES: Final = BOARD_NODES + (NodeId.HOST,)
 
 
 class DeviceType(IntEnum):
@@ -122,7 +122,7 @@ class DeviceType(IntEnum):
 
 
 #: Device type of each node.
-DEVICE_TYPE_OF_NODE: dict[int, DeviceType] = {
+DEVICE_TYPE_OF_NODE: Final[dict[int, DeviceType]] = {
     NodeId.RA_AXIS: DeviceType.AXIS_CONTROLLER,
     NodeId.DEC_AXIS: DeviceType.AXIS_CONTROLLER,
     NodeId.RA_READER: DeviceType.POSITION_READER,
@@ -138,7 +138,7 @@ DEVICE_TYPE_OF_NODE: dict[int, DeviceType] = {
 }
 
 #: Short node names used in frame names (``AXIS_STATUS_RA``, ``FAULT_RA_READER``) and the DBC.
-NODE_NAME: dict[int, str] = {
+NODE_NAME: Final[dict[int, str]] = {
     NodeId.RA_AXIS: "RA_AXIS", NodeId.DEC_AXIS: "DEC_AXIS", NodeId.RA_READER: "RA_READER",
     NodeId.DEC_READER: "DEC_READER", NodeId.FOCUS: "FOCUS",
     NodeId.DISPLAY: "DISPLAY", NodeId.DOME: "DOME", NodeId.WEATHER: "WEATHER",
@@ -148,36 +148,36 @@ NODE_NAME: dict[int, str] = {
     NodeId.HOST: "HOST",
 }
 
-FC_NMT = 0x000          #: CANopen NMT (CiA 301), host → all
-FC_EMCY = 0x080         #: CANopen EMCY (replaces today's FAULT)
-FC_LIMIT = 0x280        #: reader TPDO2 (was 0x070 + node: 0x001-0x07F is restricted in CiA 301)
-FC_STOP_ALL = 0x190     #: host TPDO1: 0x180 + host node 0x10 (was HOST_BROADCAST 0x000 cmd 3)
-FC_SDO_TX = 0x580       #: SDO server → client (answers)
-FC_SDO_RX = 0x600       #: SDO client → server (requests)
-FC_STATUS = 0x180       #: AXIS_STATUS (axes), POSITION (readers), FOCUS_STATUS (focus)
-FC_COMMAND = 0x200      #: AXIS_COMMAND (to axes), FOCUS_COMMAND (to focus)
-FC_AUX = 0x280
-FC_HEARTBEAT = 0x700    #: CiA 301 heartbeat / boot-up, 1 byte NMT state
+FC_NMT: Final = 0x000          #: CANopen NMT (CiA 301), host → all
+FC_EMCY: Final = 0x080         #: CANopen EMCY (replaces today's FAULT)
+FC_LIMIT: Final = 0x280        #: reader TPDO2 (was 0x070 + node: 0x001-0x07F is restricted in CiA 301)
+FC_STOP_ALL: Final = 0x190     #: host TPDO1: 0x180 + host node 0x10 (was HOST_BROADCAST 0x000 cmd 3)
+FC_SDO_TX: Final = 0x580       #: SDO server → client (answers)
+FC_SDO_RX: Final = 0x600       #: SDO client → server (requests)
+FC_STATUS: Final = 0x180       #: AXIS_STATUS (axes), POSITION (readers), FOCUS_STATUS (focus)
+FC_COMMAND: Final = 0x200      #: AXIS_COMMAND (to axes), FOCUS_COMMAND (to focus)
+FC_AUX: Final = 0x280
+FC_HEARTBEAT: Final = 0x700    #: CiA 301 heartbeat / boot-up, 1 byte NMT state
 
 #: Nominal periods, µs (event-driven frames are absent).
-AXIS_STATUS_PERIOD_US = 10_000
-AXIS_AUX_PERIOD_US = 10_000
-POSITION_PERIOD_US = 10_000
-FOCUS_STATUS_PERIOD_US = 250_000
-HEARTBEAT_PERIOD_US = 1_000_000
-LIMIT_REPEAT_US = 100_000
+AXIS_STATUS_PERIOD_US: Final = 10_000
+AXIS_AUX_PERIOD_US: Final = 10_000
+POSITION_PERIOD_US: Final = 10_000
+FOCUS_STATUS_PERIOD_US: Final = 250_000
+HEARTBEAT_PERIOD_US: Final = 1_000_000
+LIMIT_REPEAT_US: Final = 100_000
 # issue 12, room nodes (assumed periods: docs/protocol.md)
-DISPLAY_STATUS_PERIOD_US = 1_000_000
-DOME_STATUS_PERIOD_US = 250_000
-WEATHER_STATUS_PERIOD_US = 1_000_000
+DISPLAY_STATUS_PERIOD_US: Final = 1_000_000
+DOME_STATUS_PERIOD_US: Final = 250_000
+WEATHER_STATUS_PERIOD_US: Final = 1_000_000
 #: issue 12: one TACH_STATUS per tachometer per 5 ms (the controllers' 5 ms tick, §3.3; the
 #: issue's bus-load figure assumes one frame per board per 5 ms).
-TACH_STATUS_PERIOD_US = 5_000
+TACH_STATUS_PERIOD_US: Final = 5_000
 #: issue 12: one AUX_POSITION per auxiliary encoder per 10 ms (as POSITION, §3.4's 10 ms samples).
-AUX_POSITION_PERIOD_US = 10_000
+AUX_POSITION_PERIOD_US: Final = 10_000
 #: issue 12: one AXIS_VELOCITY per axis velocity reader per 10 ms (its ISR period; §3.4's 10 ms
 #: samples, as POSITION).
-AXIS_VELOCITY_PERIOD_US = 10_000
+AXIS_VELOCITY_PERIOD_US: Final = 10_000
 
 
 # ------------------------------------------------------------------------------------------------
@@ -372,8 +372,8 @@ class WeatherFlags(IntFlag):
 
 
 #: Absolute encoder resolution: positions are 29-bit, 2**29 counts per revolution.
-POS_COUNTS_PER_REV = 1 << 29
-ADC_MAX = 1023
+POS_COUNTS_PER_REV: Final = 1 << 29
+ADC_MAX: Final = 1023
 
 # ------------------------------------------------------------------------------------------------
 # COB-IDs
@@ -584,11 +584,11 @@ class WeatherStatus(NamedTuple):
 # Codecs (one struct per frame; hand-written for speed, checked against the DBC by tests)
 # ------------------------------------------------------------------------------------------------
 
-_DT_AXIS = DeviceType.AXIS_CONTROLLER
-_DT_READER = DeviceType.POSITION_READER
-_DT_FOCUS = DeviceType.FOCUS_CONTROLLER
-_DT_HOST = DeviceType.HOST
-_DT_BY_VALUE = {int(d): d for d in DeviceType}
+_DT_AXIS: Final = DeviceType.AXIS_CONTROLLER
+_DT_READER: Final = DeviceType.POSITION_READER
+_DT_FOCUS: Final = DeviceType.FOCUS_CONTROLLER
+_DT_HOST: Final = DeviceType.HOST
+_DT_BY_VALUE: Final = {int(d): d for d in DeviceType}
 
 
 def _table(enum_cls) -> tuple:
@@ -598,17 +598,17 @@ def _table(enum_cls) -> tuple:
                  for i in range(top + 1))
 
 
-_BCAST = _table(BroadcastCommand)
-_NMT = _table(NmtCommand)
-_CAUSE = _table(ResetCause)
-_AXIS = _table(Axis)
-_FAULT = _table(FaultCode)
-_MODE = _table(AxisMode)
-_ACMD = _table(AxisCommand)
-_FCMD = _table(FocusCommand)
-_STATE = _table(NodeState)
-_DOME_MODE = _table(DomeMode)
-_DCMD = _table(DomeCommand)
+_BCAST: Final = _table(BroadcastCommand)
+_NMT: Final = _table(NmtCommand)
+_CAUSE: Final = _table(ResetCause)
+_AXIS: Final = _table(Axis)
+_FAULT: Final = _table(FaultCode)
+_MODE: Final = _table(AxisMode)
+_ACMD: Final = _table(AxisCommand)
+_FCMD: Final = _table(FocusCommand)
+_STATE: Final = _table(NodeState)
+_DOME_MODE: Final = _table(DomeMode)
+_DCMD: Final = _table(DomeCommand)
 
 
 def _enum_or_raise(table: tuple, value: _Int, frame: str, field: str, exc: type) -> Any:
@@ -651,7 +651,7 @@ def _flags(frame: str, field: str, value: _Int, mask: _Int) -> int:
 
 #: ``tuple.__new__(Cls, values)``: a NamedTuple built without its Python-level ``__new__`` (what
 #: ``Cls._make`` does; the per-frame decoders use it)
-_tuple_new = tuple.__new__
+_tuple_new: Final = tuple.__new__
 
 
 def _clamp(v: _Int, lo: _Int, hi: _Int) -> int:
@@ -661,7 +661,7 @@ def _clamp(v: _Int, lo: _Int, hi: _Int) -> int:
 I32_MIN, I32_MAX = -(1 << 31), (1 << 31) - 1
 
 # -- NMT ------------------------------------------------------------------------------------------
-_S_NMT = struct.Struct("<BB")
+_S_NMT: Final = struct.Struct("<BB")
 
 
 def encode_nmt(cmd: _Int, target_node: _Int = 0) -> bytes:
@@ -684,7 +684,7 @@ def decode_nmt(data) -> Nmt:
 
 
 # -- STOP_ALL -------------------------------------------------------------------------------------
-_S_STOP_ALL = struct.Struct("<BBB5x")
+_S_STOP_ALL: Final = struct.Struct("<BBB5x")
 
 
 def encode_stop_all(cmd: _Int = BroadcastCommand.STOP_ALL, target_node: _Int = 0) -> bytes:
@@ -706,8 +706,8 @@ def decode_stop_all(data) -> StopAll:
 
 
 # -- LIMIT ----------------------------------------------------------------------------------------
-_S_LIMIT = struct.Struct("<BBBxI")
-_POS_MASK = (1 << 29) - 1
+_S_LIMIT: Final = struct.Struct("<BBBxI")
+_POS_MASK: Final = (1 << 29) - 1
 
 
 def encode_limit(axis: _Int, flags: _Int, pos_counts: _Int) -> bytes:
@@ -730,7 +730,7 @@ def decode_limit(data) -> Limit:
 
 
 # -- EMCY -----------------------------------------------------------------------------------------
-_S_EMCY = struct.Struct("<HBBHH")
+_S_EMCY: Final = struct.Struct("<HBBHH")
 
 
 def encode_emcy(error_code: _Int, error_register: _Int, fault_code: _Int, detail: _Int = 0,
@@ -758,7 +758,7 @@ def decode_emcy(data) -> Emcy:
 
 
 # -- AXIS_STATUS ----------------------------------------------------------------------------------
-_S_AXIS_STATUS = struct.Struct("<BBBhHB")
+_S_AXIS_STATUS: Final = struct.Struct("<BBBhHB")
 
 
 def encode_axis_status(mode: _Int, flags: _Int, u_q15: _Int, qei_counts: _Int) -> bytes:
@@ -800,7 +800,7 @@ def decode_axis_status(data) -> AxisStatus:
 
 
 # -- POSITION -------------------------------------------------------------------------------------
-_S_POSITION = struct.Struct("<BBHI")
+_S_POSITION: Final = struct.Struct("<BBHI")
 
 
 def encode_position(flags: _Int, crc_errors: _Int, pos_counts: _Int) -> bytes:
@@ -827,7 +827,7 @@ def decode_position(data) -> Position:
 
 
 # -- FOCUS_STATUS ---------------------------------------------------------------------------------
-_S_FOCUS_STATUS = struct.Struct("<BBHhH")
+_S_FOCUS_STATUS: Final = struct.Struct("<BBHhH")
 
 
 def encode_focus_status(flags: _Int, lvdt_adc: _Int, pos_halfsteps: _Int, enc_counts: _Int) -> bytes:
@@ -851,7 +851,7 @@ def decode_focus_status(data) -> FocusStatus:
 
 
 # -- AXIS_AUX -------------------------------------------------------------------------------------
-_S_AXIS_AUX = struct.Struct("<BBHHh")
+_S_AXIS_AUX: Final = struct.Struct("<BBHHh")
 
 
 def encode_axis_aux(seq: _Int, adc_a: _Int, adc_b: _Int, qei_delta: _Int) -> bytes:
@@ -882,7 +882,7 @@ def decode_axis_aux(data) -> AxisAux:
 
 
 # -- AXIS_COMMAND ---------------------------------------------------------------------------------
-_S_AXIS_COMMAND = struct.Struct("<BBbxi")
+_S_AXIS_COMMAND: Final = struct.Struct("<BBbxi")
 
 
 def encode_axis_command(cmd: _Int, direction: _Int = 0, value: _Int = 0) -> bytes:
@@ -918,7 +918,7 @@ def decode_axis_command(data) -> AxisCommandFrame:
 
 
 # -- FOCUS_COMMAND --------------------------------------------------------------------------------
-_S_FOCUS_COMMAND = struct.Struct("<BB2xi")
+_S_FOCUS_COMMAND: Final = struct.Struct("<BB2xi")
 
 
 def encode_focus_command(cmd: _Int, value: _Int = 0) -> bytes:
@@ -938,7 +938,7 @@ def decode_focus_command(data) -> FocusCommandFrame:
 
 
 # -- SDO (request 0x600 + node, response 0x580 + node) ---------------------------------------------
-_S_SDO = struct.Struct("<BHBI")
+_S_SDO: Final = struct.Struct("<BHBI")
 
 
 def encode_sdo(command: _Int, index: _Int = 0, subindex: _Int = 0, data: _Int = 0) -> bytes:
@@ -974,12 +974,12 @@ def decode_heartbeat(data) -> Heartbeat:
 
 
 # -- issue 12, room nodes: codecs ------------------------------------------------------------------
-_S_DISPLAY_STATUS = struct.Struct("<BBHH2x")
-_DT_DISPLAY = DeviceType.DISPLAY
-_DT_DOME = DeviceType.DOME
-_DT_WEATHER = DeviceType.WEATHER
-AZIMUTH_CDEG_MAX = 35_999
-HUMIDITY_CPCT_MAX = 10_000
+_S_DISPLAY_STATUS: Final = struct.Struct("<BBHH2x")
+_DT_DISPLAY: Final = DeviceType.DISPLAY
+_DT_DOME: Final = DeviceType.DOME
+_DT_WEATHER: Final = DeviceType.WEATHER
+AZIMUTH_CDEG_MAX: Final = 35_999
+HUMIDITY_CPCT_MAX: Final = 10_000
 
 
 def encode_display_status(flags: _Int, frames_received: _Int, refreshes: _Int) -> bytes:
@@ -999,7 +999,7 @@ def decode_display_status(data) -> DisplayStatus:
     return DisplayStatus(flags, n, r)
 
 
-_S_DOME_STATUS = struct.Struct("<BBBHHx")
+_S_DOME_STATUS: Final = struct.Struct("<BBBHHx")
 
 
 def encode_dome_status(mode: _Int, flags: _Int, azimuth_cdeg: _Int, target_cdeg: _Int) -> bytes:
@@ -1024,7 +1024,7 @@ def decode_dome_status(data) -> DomeStatus:
     return DomeStatus(_enum_or_raise(_DOME_MODE, mode, "DOME_STATUS", "mode", MalformedFrame), flags, az, tgt)
 
 
-_S_DOME_COMMAND = struct.Struct("<BB2xi")
+_S_DOME_COMMAND: Final = struct.Struct("<BB2xi")
 
 
 def encode_dome_command(cmd: _Int, value: _Int = 0) -> bytes:
@@ -1044,7 +1044,7 @@ def decode_dome_command(data) -> DomeCommandFrame:
     return DomeCommandFrame(_enum_or_raise(_DCMD, cmd, "DOME_COMMAND", "cmd", MalformedFrame), value)
 
 
-_S_WEATHER_STATUS = struct.Struct("<BBhHH")
+_S_WEATHER_STATUS: Final = struct.Struct("<BBhHH")
 
 
 def encode_weather_status(flags: _Int, temperature_cdegc: _Int, humidity_cpct: _Int, wind_cm_s: _Int) -> bytes:
@@ -1122,7 +1122,7 @@ def _enum_range(e) -> tuple[int, int]:
     return min(e), max(e)
 
 
-FRAMES: dict[str, FrameSpec] = {}
+FRAMES: Final[dict[str, FrameSpec]] = {}
 
 
 def _add(spec: FrameSpec) -> None:
@@ -1217,7 +1217,7 @@ _add(FrameSpec("FOCUS_COMMAND", FC_COMMAND, (NodeId.FOCUS,), "host", None, (
           dbc_unit="halfsteps"),
 ), FocusCommandFrame, encode_focus_command, decode_focus_command, "host to focus controller"))
 
-_SDO_FIELDS = (
+_SDO_FIELDS: Final = (
     Field("command", 0, 8, False, 0, 255, "id", doc="SDO command specifier (CiA 301 7.2.4.3)"),
     Field("index", 1, 16, False, 0, 0xFFFF, "id", doc="object index (initiate and abort frames)"),
     Field("subindex", 3, 8, False, 0, 255, "id"),
@@ -1276,7 +1276,7 @@ _add(FrameSpec("WEATHER_STATUS", FC_STATUS, (NodeId.WEATHER,), "node", WEATHER_S
 # -- issue 12: tachometer and auxiliary-encoder frames (one block: codecs, table rows) ---------
 
 #: Largest averaging window of the tachometer's speed, in 5 ms ticks (1 s; boards/tachometer.py).
-TACH_MAX_WINDOW_TICKS = 200
+TACH_MAX_WINDOW_TICKS: Final = 200
 
 
 class AuxFlags(IntFlag):
@@ -1306,9 +1306,9 @@ def aux_position_cob_id(node: _Int) -> int:
     return FC_STATUS + _check_node("AUX_POSITION", node, AUX_NODES)
 
 
-_S_TACH_STATUS = struct.Struct("<BBHi")
-_DT_TACH = DeviceType.TACHOMETER
-_DT_AUX = DeviceType.AUX_ENCODER
+_S_TACH_STATUS: Final = struct.Struct("<BBHi")
+_DT_TACH: Final = DeviceType.TACHOMETER
+_DT_AUX: Final = DeviceType.AUX_ENCODER
 
 
 def encode_tach_status(window_ticks: _Int, counts: _Int, speed_urad_s: _Int) -> bytes:
@@ -1338,7 +1338,7 @@ def decode_tach_status(data) -> TachStatus:
     return _tuple_new(TachStatus, (window, counts, speed))
 
 
-_S_AUX_POSITION = struct.Struct("<BB2xi")
+_S_AUX_POSITION: Final = struct.Struct("<BB2xi")
 
 
 def encode_aux_position(flags: _Int, aux_counts: _Int) -> bytes:
@@ -1381,7 +1381,7 @@ _add(FrameSpec("AUX_POSITION", FC_STATUS, AUX_NODES, "node", AUX_POSITION_PERIOD
 # -- issue 12: axis velocity readers ---------------------------------------------------------------
 
 #: Largest averaging window of the axis velocity reader, in 10 ms ticks (1 s; boards/velocity_reader.py).
-VEL_MAX_WINDOW_TICKS = 100
+VEL_MAX_WINDOW_TICKS: Final = 100
 
 
 class AxisVelocity(NamedTuple):
@@ -1395,8 +1395,8 @@ def axis_velocity_cob_id(node: _Int) -> int:
     return FC_STATUS + _check_node("AXIS_VELOCITY", node, VEL_NODES)
 
 
-_S_AXIS_VELOCITY = struct.Struct("<BBHi")
-_DT_VEL = DeviceType.AXIS_VELOCITY
+_S_AXIS_VELOCITY: Final = struct.Struct("<BBHi")
+_DT_VEL: Final = DeviceType.AXIS_VELOCITY
 
 
 def encode_axis_velocity(window_ticks: _Int, counts: _Int, rate_marcsec_s: _Int) -> bytes:
@@ -1444,12 +1444,12 @@ AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.SET_KP] = ("kp", 1e-6, "duty/(arcsec/s)")
 AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.SET_KI] = ("ki", 1e-6, "duty/(arcsec/s)")
 #: Highest |VELOCITY| the axis firmware accepts, milli-arcsec/s: 3°/s, the paper's highest operated
 #: rate (§4); the one source of ``boards.safety.SafetyLimits.max_rate_arcsec_s``'s default.
-VELOCITY_MAX_MARCSEC_S = 10_800_000
+VELOCITY_MAX_MARCSEC_S: Final = 10_800_000
 #: Raw range of ``AXIS_COMMAND.value`` the axis firmware accepts, per command (the DBC's ranges;
 #: other commands: the whole i32). Out of range: the firmware refuses the command (EMCY
 #: COMMAND_REFUSED, state unchanged). SET_KP/SET_KI are also refused outside the gain band
 #: around the tuned gain (boards/safety.py), which no static range can express.
-AXIS_COMMAND_VALUE_RANGES: dict[AxisCommand, tuple[int, int]] = {
+AXIS_COMMAND_VALUE_RANGES: Final[dict[AxisCommand, tuple[int, int]]] = {
     AxisCommand.VELOCITY: (-VELOCITY_MAX_MARCSEC_S, VELOCITY_MAX_MARCSEC_S),
     AxisCommand.OPEN_LOOP: (-Q15_FULL_SCALE, Q15_FULL_SCALE),
     AxisCommand.SET_KP: (0, I32_MAX),
@@ -1473,7 +1473,7 @@ def _message_name(spec: FrameSpec, node) -> str:
 
 
 #: cob_id -> (message name, FrameSpec, node or None). One entry per DBC message.
-COB_TABLE: dict[int, tuple[str, FrameSpec, int | None]] = {}
+COB_TABLE: Final[dict[int, tuple[str, FrameSpec, int | None]]] = {}
 for _spec in FRAMES.values():
     for _node in _spec.nodes:
         _cob = _spec.function_code + (0 if _node is None else int(_node))
@@ -1481,8 +1481,8 @@ for _spec in FRAMES.values():
         COB_TABLE[_cob] = (_message_name(_spec, _node), _spec, _node)
 del _spec, _node, _cob
 
-_DECODERS = {cob: entry[1].decode for cob, entry in COB_TABLE.items()}
-_NAMES = {cob: entry[0] for cob, entry in COB_TABLE.items()}
+_DECODERS: Final = {cob: entry[1].decode for cob, entry in COB_TABLE.items()}
+_NAMES: Final = {cob: entry[0] for cob, entry in COB_TABLE.items()}
 
 
 def frame_name(cob_id: _Int) -> str:
@@ -1552,7 +1552,7 @@ def format_frame(cob_id: _Int, data) -> str:
     return f"{frame_name(cob_id)} 0x{cob_id:03X} [{body}]"
 
 
-DBC_PATH = Path(__file__).with_name("schmidt.dbc")
+DBC_PATH: Final = Path(__file__).with_name("schmidt.dbc")
 
 
 @lru_cache(maxsize=1)
@@ -1572,7 +1572,7 @@ def load_dbc():
 # DBC generation (``python -m bus.protocol > bus/schmidt.dbc``)
 # ------------------------------------------------------------------------------------------------
 
-_DBC_NODES = ("HOST", "RA_AXIS", "DEC_AXIS", "RA_READER", "DEC_READER", "FOCUS",
+_DBC_NODES: Final = ("HOST", "RA_AXIS", "DEC_AXIS", "RA_READER", "DEC_READER", "FOCUS",
               "TACH_RA_1", "TACH_RA_2", "TACH_DEC_1", "TACH_DEC_2", "AUX_RA", "AUX_DEC",
               "DISPLAY", "DOME", "WEATHER", "VEL_RA", "VEL_DEC")
 

@@ -29,7 +29,7 @@ Examples
 from __future__ import annotations
 
 from operator import index as _index
-from typing import Any, Callable, Optional
+from typing import Any, Callable, Final, Optional
 
 from bus.errors import SimulationError
 
@@ -44,15 +44,15 @@ __all__ = [
 ]
 
 #: Plant integration runs first at a given instant, so sensors read the state at ``now_us``.
-PRIO_PLANT = 0
+PRIO_PLANT: Final = 0
 #: Board timer interrupts (the 5 ms control tick).
-PRIO_ISR = 10
+PRIO_ISR: Final = 10
 #: CAN frame completion and receive interrupts.
-PRIO_CAN = 20
+PRIO_CAN: Final = 20
 #: Board background loops (command parsing, housekeeping).
-PRIO_BACKGROUND = 30
+PRIO_BACKGROUND: Final = 30
 #: Host-side scenario steps and logging.
-PRIO_HOST = 40
+PRIO_HOST: Final = 40
 
 Callback = Callable[[int], object]
 

@@ -28,7 +28,7 @@ time source. The device is any object with the ``host_*`` methods of
 from __future__ import annotations
 
 from collections import deque
-from typing import Callable, Deque, Optional, Tuple
+from typing import Callable, Deque, Final, Optional, Tuple
 
 from bus.scheduler import PRIO_HOST, Event, Scheduler
 
@@ -37,16 +37,16 @@ __all__ = ["UsbHostPort", "FRAME_PERIOD_US", "HIDRAW_BUFFER_REPORTS", "PRIO_USB"
 #: Priority of the frame event: after the boards (ISRs, CAN delivery, background loops) at the
 #: same instant, before the host's own events (``PRIO_HOST``), so a host event at a frame
 #: boundary sees that frame's reports.
-PRIO_USB = PRIO_HOST - 1
+PRIO_USB: Final = PRIO_HOST - 1
 
 #: Full-speed frame period and interrupt-endpoint interval, µs (USB 2.0 §5.7.4).
-FRAME_PERIOD_US = 1_000
+FRAME_PERIOD_US: Final = 1_000
 #: Reports a reader may leave unread before the host stops polling (Linux hidraw keeps a list
 #: of 64 reports per open file, drivers/hid/hidraw.c HIDRAW_BUFFER_SIZE).
-HIDRAW_BUFFER_REPORTS = 64
+HIDRAW_BUFFER_REPORTS: Final = 64
 #: OUT reports a writer may queue before ``write`` fails (assumed: usbhid's output FIFO holds
 #: 256 reports; a smaller bound makes a stalled gateway visible sooner).
-OUT_QUEUE_REPORTS = 64
+OUT_QUEUE_REPORTS: Final = 64
 
 
 class UsbHostPort:

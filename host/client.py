@@ -22,7 +22,7 @@ watchdog, object 0x1016).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Callable, ClassVar, Mapping
+from typing import Any, Callable, ClassVar, Final, Mapping
 
 import can
 from mypy_extensions import mypyc_attr
@@ -34,28 +34,28 @@ from boards.registry import NODE_NAMES, REGISTRY, network_nodes, nodes_of_kind
 from bus.units import ARCSEC_PER_REV, TICK_US, duty_to_q15, q15_to_duty
 
 #: identifier -> decoder of the frame table (``bus.protocol.decode`` without its call, per frame)
-_DECODERS = {cob: entry[1].decode for cob, entry in P.COB_TABLE.items()}
+_DECODERS: Final = {cob: entry[1].decode for cob, entry in P.COB_TABLE.items()}
 #: flag masks as plain ints (an IntFlag operation is a Python-level call, per frame)
-_POSITION_BAD = int(P.PositionFlags.CRC_ERROR | P.PositionFlags.INVALID)
-_AUX_TURNS_UNKNOWN = int(P.AuxFlags.TURNS_UNKNOWN)
+_POSITION_BAD: Final = int(P.PositionFlags.CRC_ERROR | P.PositionFlags.INVALID)
+_AUX_TURNS_UNKNOWN: Final = int(P.AuxFlags.TURNS_UNKNOWN)
 
 __all__ = ["HostClient", "Health", "AxisState", "NODE_NAMES", "AXIS_NODES"]
 
-AXIS_NODES = nodes_of_kind("axis_controller")       #: {"ra": 1, "dec": 2}
-READER_NODES = nodes_of_kind("position_reader")    #: {"ra": 3, "dec": 4}
-_AXIS_OF_NODE = {node: axis for axis, node in AXIS_NODES.items()}
+AXIS_NODES: Final = nodes_of_kind("axis_controller")       #: {"ra": 1, "dec": 2}
+READER_NODES: Final = nodes_of_kind("position_reader")    #: {"ra": 3, "dec": 4}
+_AXIS_OF_NODE: Final = {node: axis for axis, node in AXIS_NODES.items()}
 #: ``bus.protocol.node_of`` (None only for broadcasts, which reach no handler that uses it)
 _node_of: Callable[[int], Any] = P.node_of
 #: issue 12: tachometer node -> (axis, motor); auxiliary-encoder node -> axis (from the registry)
-TACH_MOTOR_OF_NODE: dict[int, Any] = {int(i.node_id): (i.axis, i.motor) for s in REGISTRY if s.kind == "tachometer"
+TACH_MOTOR_OF_NODE: Final[dict[int, Any]] = {int(i.node_id): (i.axis, i.motor) for s in REGISTRY if s.kind == "tachometer"
                       for i in s.instances}
-AUX_AXIS_OF_NODE: dict[int, Any] = {int(i.node_id): i.axis for s in REGISTRY if s.kind == "aux_encoder" for i in s.instances}
+AUX_AXIS_OF_NODE: Final[dict[int, Any]] = {int(i.node_id): i.axis for s in REGISTRY if s.kind == "aux_encoder" for i in s.instances}
 #: issue 12: axis velocity reader node -> axis
-VEL_AXIS_OF_NODE: dict[int, Any] = {int(i.node_id): i.axis for s in REGISTRY if s.kind == "velocity_reader" for i in s.instances}
-_READER_AXIS = {node: axis for axis, node in READER_NODES.items()}
+VEL_AXIS_OF_NODE: Final[dict[int, Any]] = {int(i.node_id): i.axis for s in REGISTRY if s.kind == "velocity_reader" for i in s.instances}
+_READER_AXIS: Final = {node: axis for axis, node in READER_NODES.items()}
 #: EDS (board kind) of each CANopen node: what the host's SDO client reads it with (the USB
 #: gateway, the host's own node, has none).
-_EDS_OF_NODE: dict[int, Any] = {int(i.node_id): getattr(s.firmware, "CANOPEN_KIND") for s in REGISTRY if s.canopen for i in s.instances}
+_EDS_OF_NODE: Final[dict[int, Any]] = {int(i.node_id): getattr(s.firmware, "CANOPEN_KIND") for s in REGISTRY if s.canopen for i in s.instances}
 
 
 def _node_name(node: int) -> str:
@@ -64,7 +64,7 @@ def _node_name(node: int) -> str:
     return NODE_NAMES.get(node, "host" if node == P.NODE_HOST else str(node))
 
 
-_MODE_CMD = {
+_MODE_CMD: Final = {
     "stop": P.AxisCommand.STOP,
     "slew": P.AxisCommand.SLEW,
     "set": P.AxisCommand.SET,
@@ -137,14 +137,14 @@ class DisplayState:
 
 
 #: WEATHER_STATUS flags that make the host stop and refuse motion.
-WEATHER_UNSAFE = int(P.WeatherFlags.HIGH_WIND | P.WeatherFlags.RAIN)
+WEATHER_UNSAFE: Final = int(P.WeatherFlags.HIGH_WIND | P.WeatherFlags.RAIN)
 def weather_flag_names(flags: int) -> str:
     """``"high_wind,rain"``, ``"high_wind"``... or ``"none"`` for WEATHER_STATUS flags."""
     names = [str(f.name).lower() for f in P.WeatherFlags if flags & f]
     return ",".join(names) if names else "none"
 
 
-_DOME_CMD = {"stop": P.DomeCommand.STOP, "follow": P.DomeCommand.FOLLOW, "goto": P.DomeCommand.GOTO,
+_DOME_CMD: Final = {"stop": P.DomeCommand.STOP, "follow": P.DomeCommand.FOLLOW, "goto": P.DomeCommand.GOTO,
              "park": P.DomeCommand.PARK}
 
 
@@ -201,8 +201,8 @@ class Health:
 
 
 #: SDO upload request of object 0x1000 sub 0 (CiA 301 initiate upload, cs 0x40): the health check.
-SDO_UPLOAD_1000 = bytes((0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0))
-_ARCSEC_PER_POS_COUNT = ARCSEC_PER_REV / P.POS_COUNTS_PER_REV
+SDO_UPLOAD_1000: Final = bytes((0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0))
+_ARCSEC_PER_POS_COUNT: Final = ARCSEC_PER_REV / P.POS_COUNTS_PER_REV
 
 
 def _signed_arcsec(pos_counts: int) -> float:

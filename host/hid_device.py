@@ -27,7 +27,7 @@ Devices are found in a :class:`SimUsb` (a simulated PC's USB host), by default t
 
 from __future__ import annotations
 
-from typing import Any, Callable, Dict, List, Optional
+from typing import Any, Callable, Dict, Final, List, Optional
 
 from mypy_extensions import mypyc_attr
 
@@ -40,7 +40,7 @@ __all__ = ["device", "enumerate", "plug", "unplug", "SimUsb", "DEFAULT_USB", "BL
 
 #: Longest simulated wait of a blocking read (timeout −1), ms (assumed: 10 s, far above any
 #: report interval of the network; a host waiting longer has lost the gateway).
-BLOCK_LIMIT_MS = 10_000
+BLOCK_LIMIT_MS: Final = 10_000
 
 
 class _Plugged:
@@ -87,7 +87,7 @@ class SimUsb:
 
 
 #: The USB host that :class:`device` searches by default.
-DEFAULT_USB = SimUsb()
+DEFAULT_USB: Final = SimUsb()
 
 
 def plug(gateway, **kw) -> UsbHostPort:

@@ -10,7 +10,7 @@ the firmware sees only in-range values of the right type and checks what a range
 
 from __future__ import annotations
 
-from typing import Optional, Union
+from typing import Final, Optional, Union
 
 from canopen.sdo import SdoAbortedError
 from mypy_extensions import mypyc_attr
@@ -20,13 +20,13 @@ __all__ = ["Application", "ObjectRefused", "ABORT_VALUE_INVALID", "ABORT_VALUE_T
            "ABORT_NO_DATA", "ABORT_PARAMETER_INCOMPATIBLE"]
 
 #: SDO abort codes (CiA 301 Table 22) the services and firmwares use.
-ABORT_VALUE_INVALID = 0x06090030          # invalid value for parameter
-ABORT_VALUE_TOO_HIGH = 0x06090031
-ABORT_VALUE_TOO_LOW = 0x06090032
-ABORT_MAX_LESS_THAN_MIN = 0x06090036
-ABORT_PARAMETER_INCOMPATIBLE = 0x06040043
-ABORT_DEVICE_STATE = 0x08000022           # not possible in the present device state
-ABORT_NO_DATA = 0x08000024
+ABORT_VALUE_INVALID: Final = 0x06090030          # invalid value for parameter
+ABORT_VALUE_TOO_HIGH: Final = 0x06090031
+ABORT_VALUE_TOO_LOW: Final = 0x06090032
+ABORT_MAX_LESS_THAN_MIN: Final = 0x06090036
+ABORT_PARAMETER_INCOMPATIBLE: Final = 0x06040043
+ABORT_DEVICE_STATE: Final = 0x08000022           # not possible in the present device state
+ABORT_NO_DATA: Final = 0x08000024
 
 Value = Union[int, str]
 
