@@ -1436,7 +1436,7 @@ _add(FrameSpec("AXIS_VELOCITY", FC_STATUS, VEL_NODES, "node", AXIS_VELOCITY_PERI
 
 #: Per-command DBC signal for ``AXIS_COMMAND.value`` (the DBC multiplexes it by ``cmd``):
 #: command -> (signal name, factor, unit).
-AXIS_COMMAND_VALUE_SIGNALS: dict[AxisCommand, tuple[str, float, str]] = {
+AXIS_COMMAND_VALUE_SIGNALS: Final[dict[AxisCommand, tuple[str, float, str]]] = {
     c: (f"{c.name.lower()}_value", 1.0, "") for c in AxisCommand}
 AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.VELOCITY] = ("velocity", 0.001, "arcsec/s")
 AXIS_COMMAND_VALUE_SIGNALS[AxisCommand.OPEN_LOOP] = ("open_loop_duty", 1 / Q15_FULL_SCALE, "duty")

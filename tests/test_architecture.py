@@ -185,3 +185,34 @@ def test_default_network_is_the_registry_default_boards(tmp_path):
                                                   if R.BOARDS[n][0].canopen)
     finally:
         tel.close()
+
+
+def test_constants_of_compiled_modules_are_final():
+    """Every module-level CONSTANT (upper-case name bound once) of a module compiled by mypyc
+    (``bus._native.NATIVE_MODULES``) is ``typing.Final``: mypyc then inlines it or keeps it in a
+    C static; otherwise each use is a module-dictionary lookup (≈ 5 % of the ``full`` network's
+    instructions before session 8, docs/performance.md). Also a guard that none is rebound."""
+    from bus._native import NATIVE_MODULES
+
+    const = re.compile(r"^_?[A-Z][A-Z0-9_]*$")
+    missing = []
+    for mod in NATIVE_MODULES:
+        path = ROOT / (mod.replace(".", "/") + ".py")
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        bound: dict[str, int] = {}
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+                bound[node.id] = bound.get(node.id, 0) + 1
+        rebound = {n for node in ast.walk(tree) if isinstance(node, ast.Global) for n in node.names}
+        for node in tree.body:
+            if isinstance(node, ast.Assign) and len(node.targets) == 1 and isinstance(node.targets[0], ast.Name):
+                name = node.targets[0].id
+            elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name) and node.value is not None:
+                name = node.target.id
+                if "Final" in ast.unparse(node.annotation):
+                    continue
+            else:
+                continue
+            if const.match(name) and bound.get(name) == 1 and name not in rebound:
+                missing.append(f"{mod}.{name} (line {node.lineno})")
+    assert not missing, "module constants of compiled modules without typing.Final: " + ", ".join(missing)
