@@ -220,6 +220,7 @@ class Board(Firmware):
         self.can = CanController(bus, rx_buffers=rx_buffers)
         self.can.accept = self._accept
         self.can.on_rx = self._on_rx
+        self.can.on_frame = self._on_frame
         self.background_period_us = int(background_period_us)
         if not self.can.has_rx_interrupt:
             # a polled CAN controller (python-can ``virtual``, SocketCAN): its two receive
@@ -333,12 +334,18 @@ class Board(Firmware):
         return arbitration_id in self._accepted_ids
 
     def _on_rx(self, msg: can.Message) -> None:
+        """Receive handler for a ``can.Message`` (polled buses: python-can ``virtual``,
+        SocketCAN): a remote, extended or error frame is malformed here; a data frame goes to
+        :meth:`_on_frame`."""
+        if msg.is_remote_frame or msg.is_extended_id or msg.is_error_frame:
+            self._malformed(msg.arbitration_id)
+            return
+        self._on_frame(msg.arbitration_id, bytes(msg.data))
+
+    def _on_frame(self, cob: int, data: bytes) -> None:
+        """Receive handler for a standard data frame (called directly by the CAN controller on
+        the ``schmidt-sim`` bus, which carries nothing else)."""
         try:
-            if msg.is_remote_frame or msg.is_extended_id or msg.is_error_frame:
-                raise MalformedFrame(f"id 0x{msg.arbitration_id:03X}", "frame type",
-                                     "standard data frame")
-            cob = msg.arbitration_id
-            data = bytes(msg.data)
             consumed = self.device.receive(cob, data)   # NMT, SDO, a heartbeat in 0x1016
             if proto.FC_HEARTBEAT < cob <= proto.FC_HEARTBEAT + 0x7F:
                 # a heartbeat the firmware watches too (the axis's host watchdog, 0x710) reaches
@@ -351,23 +358,28 @@ class Board(Firmware):
             if not self.device.accept_rpdo(cob):
                 return                                  # process data outside OPERATIONAL
             if cob == self._stop_all_id:
-                b = proto.decode_stop_all(msg.data)
+                b = proto.decode_stop_all(data)
                 if b.target_node in (0, self.node_id):
                     self.stop_all()
             else:
                 self.handle_frame(cob, data)
         except MalformedFrame:
-            self.malformed_frames += 1
-            now = self.scheduler.now_us
-            tokens = min(float(MALFORMED_FAULT_BURST),
-                         self._mf_tokens + (now - self._mf_t_us) * MALFORMED_FAULT_RATE_HZ * 1e-6)
-            self._mf_t_us = now
-            if tokens >= 1.0:
-                self._mf_tokens = tokens - 1.0
-                self.send_fault(FAULT_MALFORMED, detail=msg.arbitration_id)
-            else:
-                self._mf_tokens = tokens
-                self.faults_suppressed += 1
+            self._malformed(cob)
+
+    def _malformed(self, cob: int) -> None:
+        """Count a malformed frame; FAULT MALFORMED (detail = its identifier) within the rate
+        limit (token bucket), else counted in ``faults_suppressed``."""
+        self.malformed_frames += 1
+        now = self.scheduler.now_us
+        tokens = min(float(MALFORMED_FAULT_BURST),
+                     self._mf_tokens + (now - self._mf_t_us) * MALFORMED_FAULT_RATE_HZ * 1e-6)
+        self._mf_t_us = now
+        if tokens >= 1.0:
+            self._mf_tokens = tokens - 1.0
+            self.send_fault(FAULT_MALFORMED, detail=cob)
+        else:
+            self._mf_tokens = tokens
+            self.faults_suppressed += 1
 
     def handle_frame(self, arbitration_id: int, data: bytes) -> None:
         """Decode and apply an accepted frame; raise ``MalformedFrame`` if it does not decode."""

@@ -20,6 +20,7 @@ from typing import Any, Callable, ClassVar, Deque, Dict, Final, Optional
 
 import can
 
+from bus.network import RxFrame
 from bus.scheduler import PRIO_BACKGROUND, PRIO_ISR, Event, Scheduler
 
 __all__ = [
@@ -353,6 +354,11 @@ class CanController:
         self.rx_buffers = int(rx_buffers)
         self.accept: Callable[[int], bool] = lambda arbitration_id: True
         self.on_rx: Optional[Callable[[can.Message], None]] = None
+        #: the receive handler as ``on_frame(arbitration_id, data)``: on a bus that queues
+        #: :class:`~bus.network.RxFrame` objects (``schmidt-sim``), the receive interrupt calls
+        #: this instead of ``on_rx`` and no ``can.Message`` is built (frames there are always
+        #: standard data frames of 0..8 bytes). Unset: ``on_rx`` gets Messages on every bus.
+        self.on_frame: Optional[Callable[[int, bytes], None]] = None
         self._hw: Deque[can.Message] = deque()
         #: transmit buffers the firmware uses (1: one at a time, so frames leave in send order)
         self.tx_buffers = int(tx_buffers)
@@ -367,6 +373,7 @@ class CanController:
         self.has_rx_interrupt = hasattr(bus, "set_rx_callback")
         self._send_frame = getattr(bus, "send_frame", None)
         self._drain = getattr(bus, "drain_rx", None)
+        self._drain_frames = getattr(bus, "drain_rx_frames", None)
 
     def enable_rx_interrupt(self) -> bool:
         """Hook the receive interrupt if the bus supports it; returns True if it does."""
@@ -429,6 +436,22 @@ class CanController:
         # schmidt-sim (drain_rx): _fill_buffers + _service inlined, the same steps in the same
         # order (the receive interrupt of every frame on the bus: the hot path)
         hw, n, accept = self._hw, self.rx_buffers, self.accept
+        on_frame = self.on_frame
+        if on_frame is not None and self._drain_frames is not None and not hw:
+            # the same steps on RxFrame objects: no can.Message per frame
+            frames: list[RxFrame] = self._drain_frames()
+            kept: list[RxFrame] = []
+            for fr in frames:
+                if not accept(fr.arbitration_id):
+                    continue
+                if len(kept) >= n:
+                    self.rx_overflows += 1      # RXnOVR: the frame is lost
+                    continue
+                kept.append(fr)
+            for fr in kept:
+                self.rx_frames += 1
+                on_frame(fr.arbitration_id, fr.data)
+            return
         for msg in drain():
             if not accept(msg.arbitration_id):
                 continue

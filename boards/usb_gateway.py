@@ -114,6 +114,7 @@ class UsbGateway(Firmware):
         self.can = CanController(bus, rx_buffers=2 if has_irq else 1 << 30, tx_buffers=1)
         self.can.accept = self._accept
         self.can.on_rx = self._on_can_rx
+        self.can.on_frame = self._on_can_frame
         self.usb = usb if usb is not None else UsbHidInterface()
         self.usb.on_sof = self._sof
         self.usb.on_in_done = self._in_done
@@ -221,6 +222,11 @@ class UsbGateway(Firmware):
                 or not 0 <= msg.arbitration_id <= 0x7FF):    # a "standard" id out of range
             self.rx_unsupported += 1
             return
+        self._on_can_frame(msg.arbitration_id, bytes(msg.data))
+
+    def _on_can_frame(self, arbitration_id: int, data: bytes) -> None:
+        """A standard data frame of 0..8 bytes (the CAN controller calls this directly on the
+        ``schmidt-sim`` bus, which carries nothing else; :meth:`_on_can_rx` after its checks)."""
         q = self._queue
         if not q:                           # the USB host may be idle only with an empty queue
             self.usb.wake(False)
@@ -228,9 +234,8 @@ class UsbGateway(Firmware):
             self.rx_dropped += 1
             self._raise(R.InFlags.RX_OVERFLOW)
             return
-        data = bytes(msg.data)
         # a report slot's fields as encode_report packs them: id, DLC, data, timestamp
-        q.append((msg.arbitration_id, len(data), data, (self.scheduler.now_us - self.boot_us) & _U32))
+        q.append((arbitration_id, len(data), data, (self.scheduler.now_us - self.boot_us) & _U32))
         self.rx_frames += 1
         if len(q) > self.queue_high_water:
             self.queue_high_water = len(q)

@@ -62,7 +62,7 @@ from bus import bitkernel as _bitkernel
 from bus.errors import BusError
 from bus.scheduler import PRIO_CAN, Event, Scheduler
 
-__all__ = ["CanNetwork", "TxBuffers", "get_network", "frame_bits", "clear_frame_bits_cache",
+__all__ = ["CanNetwork", "TxBuffers", "RxFrame", "get_network", "frame_bits", "clear_frame_bits_cache",
            "frame_bits_unstuffed", "crc15",
            "WINDOW_US", "NodeErrorState", "ErrorRule", "ERROR_ACTIVE", "ERROR_PASSIVE", "BUS_OFF",
            "ERROR_FRAME_BITS", "RECOVERY_OCCURRENCES"]
@@ -332,6 +332,40 @@ def _rx_message_init(timestamp: float, arbitration_id: int, data: bytes, channel
 #: else by the constructor (tests/test_bus_network.py checks the two agree).
 _rx_message: Final = (_rx_message_fast if set(getattr(_Message, "__slots__", ())) - {"__weakref__"} == _MESSAGE_SLOTS
                else _rx_message_init)
+
+
+class RxFrame:
+    """A received standard data frame inside the in-process bus: the end time and the frame.
+
+    :class:`~bus.simbus.SimBus` queues these and builds the ``can.Message`` only when a program
+    reads the frame (``recv``, ``drain_rx``); the emulated boards' CAN controllers take them as
+    they are (:meth:`SimBus.drain_rx_frames`). Building a python-can ``Message`` for every
+    delivery was ≈ 5 % of the ``full`` network's instructions, and reading its attributes from
+    compiled code goes through the generic attribute protocol (docs/performance.md, session 8).
+
+    Attributes
+    ----------
+    t_us : int
+        End of the frame on the wire, µs (the Message's ``timestamp`` is ``t_us / 1e6`` s).
+    arbitration_id : int
+        11-bit identifier (the bus emulates standard data frames only).
+    data : bytes
+        0..8 data bytes.
+    """
+
+    __slots__ = ("t_us", "arbitration_id", "data")
+
+    def __init__(self, t_us: int, arbitration_id: int, data: bytes) -> None:
+        self.t_us = t_us
+        self.arbitration_id = arbitration_id
+        self.data = data
+
+    def message(self, channel: Any, is_rx: bool = True) -> can.Message:
+        """The frame as the ``can.Message`` a python-can receiver gets."""
+        return _rx_message(self.t_us / 1e6, self.arbitration_id, self.data, channel, is_rx)
+
+    def __repr__(self) -> str:
+        return f"RxFrame(t_us={self.t_us}, arbitration_id=0x{self.arbitration_id:03X}, data={self.data.hex()})"
 
 
 class TxBuffers:
@@ -712,19 +746,21 @@ class CanNetwork:
         self._rx_table.clear()
 
     def _receivers(self, arbitration_id: int) -> tuple:
-        """``((bus, enqueue), ...)`` for the buses that accept ``arbitration_id``, attach order.
+        """``((bus, enqueue, enqueue_frame), ...)`` for the buses that accept
+        ``arbitration_id``, attach order.
 
         A bus with ``_accepts(id)`` (SimBus, the babbling node) is listed only if its filters
-        pass the identifier, and then gets the frame through ``_enqueue`` (no second filter
-        check); any other attached object is always listed and gets ``_deliver``, which filters.
+        pass the identifier, and then gets the frame through ``_enqueue(msg)`` (no second filter
+        check) or, if it has one, ``_enqueue_frame(RxFrame)`` (no ``can.Message`` built); any
+        other attached object is always listed and gets ``_deliver(msg)``, which filters.
         """
         out = []
         for bus in self._buses:
             accepts = getattr(bus, "_accepts", None)
             if accepts is None:
-                out.append((bus, bus._deliver))
+                out.append((bus, bus._deliver, None))
             elif accepts(arbitration_id):
-                out.append((bus, bus._enqueue))
+                out.append((bus, bus._enqueue, getattr(bus, "_enqueue_frame", None)))
         entry = tuple(out)
         self._rx_table[arbitration_id] = entry
         return entry
@@ -941,17 +977,28 @@ class CanNetwork:
             receivers = self._receivers(aid)
         taps = self._taps
         if receivers or taps:
-            msg = _rx_message(now_us / 1e6, aid, pending.data, self.channel, True)
+            data = pending.data
+            # the can.Message is built only for a tap or a receiver without _enqueue_frame;
+            # a SimBus gets the RxFrame and builds it if and when a program reads the frame
+            msg = _rx_message(now_us / 1e6, aid, data, self.channel, True) if taps else None
             for tap in taps:
                 tap(msg)
+            frame: Optional[RxFrame] = None
             interrupts = []
-            for bus, enqueue in receivers:
+            for bus, enqueue, enqueue_frame in receivers:
                 if bus is not sender:
                     if lost is not None and bus in lost:
                         continue
-                    fire = enqueue(msg)
+                    if enqueue_frame is not None:
+                        if frame is None:
+                            frame = RxFrame(now_us, aid, data)
+                        fire = enqueue_frame(frame)
+                    else:
+                        if msg is None:
+                            msg = _rx_message(now_us / 1e6, aid, data, self.channel, True)
+                        fire = enqueue(msg)
                 elif getattr(bus, "receive_own_messages", False):
-                    fire = enqueue(_rx_message(msg.timestamp, aid, pending.data, self.channel, False))
+                    fire = enqueue(_rx_message(now_us / 1e6, aid, data, self.channel, False))
                 else:
                     continue
                 if fire:

@@ -31,7 +31,7 @@ import can
 
 from bus._native import own_abc_cache
 from bus.errors import BusError
-from bus.network import CanNetwork, NodeErrorState, get_network
+from bus.network import CanNetwork, NodeErrorState, RxFrame, get_network
 
 __all__ = ["SimBus"]
 
@@ -144,7 +144,7 @@ class SimBus(can.BusABC):
             return False
         return self._enqueue(msg)
 
-    def _enqueue(self, msg: can.Message) -> bool:
+    def _enqueue(self, msg: can.Message | RxFrame) -> bool:
         """Queue a frame the filters accept (see :meth:`_deliver`); the network's delivery table
         calls this directly for the identifiers :meth:`_accepts` passes."""
         rx = self._rx
@@ -154,6 +154,15 @@ class SimBus(can.BusABC):
         rx.append(msg)
         return self._rx_callback is not None
 
+    def _enqueue_frame(self, frame: RxFrame) -> bool:
+        """:meth:`_enqueue` for a received frame as the network has it (no ``can.Message``
+        built: :meth:`recv` and :meth:`drain_rx` build it when a program reads the frame)."""
+        return self._enqueue(frame)
+
+    def _message(self, item) -> can.Message:
+        """A queued item as the ``can.Message`` python-can promises (own frames already are)."""
+        return item.message(self.channel) if item.__class__ is RxFrame else item
+
     def _fire(self, now_us: int) -> None:
         cb = self._rx_callback
         if cb is not None:
@@ -162,22 +171,38 @@ class SimBus(can.BusABC):
     def _recv_internal(self, timeout: float | None):
         """Return ``(next delivered frame, True)`` or ``(None, False)`` at once."""
         if self._rx:
-            return self._rx.popleft(), True
+            return self._message(self._rx.popleft()), True
         return None, False
 
     def recv(self, timeout: float | None = None) -> can.Message | None:
         """Next delivered frame or ``None`` at once (``timeout`` is ignored: simulated time)."""
         if self._rx:
-            return self._rx.popleft()
+            return self._message(self._rx.popleft())
         return None
 
     def drain_rx(self) -> list:
         """Every frame delivered and not yet read, oldest first, removed from the queue (what
-        ``recv()`` would return one by one until ``None``)."""
+        ``recv()`` would return one by one until ``None``): a list of ``can.Message``."""
         rx = self._rx
         if not rx:
             return []
-        out = list(rx)
+        out = [self._message(m) for m in rx]
+        rx.clear()
+        return out
+
+    def drain_rx_frames(self) -> list[RxFrame]:
+        """:meth:`drain_rx` as :class:`~bus.network.RxFrame` objects, without building a
+        ``can.Message`` (the emulated boards' CAN controllers; the hot path). A frame of this
+        node's own (``receive_own_messages``) is given with the time it was received at."""
+        rx = self._rx
+        if not rx:
+            return []
+        out: list[RxFrame] = []
+        for m in rx:
+            if m.__class__ is RxFrame:
+                out.append(m)
+            else:
+                out.append(RxFrame(round(m.timestamp * 1e6), m.arbitration_id, bytes(m.data)))
         rx.clear()
         return out
 

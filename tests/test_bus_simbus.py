@@ -68,12 +68,31 @@ def test_sender_may_reuse_its_message_object(sched, channel):
     assert b.recv().data[0] == 0
 
 
-def test_receivers_share_one_read_only_message(sched, channel):
-    """All receivers get the same Message instance (documented: do not mutate)."""
+def test_each_receiver_gets_its_own_equal_message(sched, channel):
+    """Every receiver reads an equal Message (identifier, data, end-of-frame timestamp, is_rx,
+    channel); each is its own object, so one program mutating its copy cannot change what
+    another reads (the network queues an RxFrame and SimBus builds the Message on reading)."""
     a, b, c = SimBus(channel), SimBus(channel), SimBus(channel)
     a.send(frame())
     sched.run_until(1_000)
-    assert b.recv() is c.recv()
+    mb, mc = b.recv(), c.recv()
+    assert mb is not mc and isinstance(mb, can.Message) and isinstance(mc, can.Message)
+    assert mb.equals(mc) and mb.is_rx and mb.channel == channel and not mb.is_extended_id
+    mb.data[0] ^= 0xFF
+    assert mc.data == frame().data
+
+
+def test_drain_rx_frames_matches_recv(sched, channel):
+    """``drain_rx_frames`` (the boards' receive path) gives the same frames as ``recv``."""
+    a, b, c = SimBus(channel), SimBus(channel), SimBus(channel)
+    for i in range(3):
+        a.send(can.Message(arbitration_id=0x180 + i, data=bytes([i] * (i + 1)), is_extended_id=False))
+    sched.run_until(2_000)
+    frames = b.drain_rx_frames()
+    msgs = list(iter(c.recv, None))
+    assert [(f.arbitration_id, f.data, f.t_us / 1e6) for f in frames] == \
+        [(m.arbitration_id, bytes(m.data), m.timestamp) for m in msgs]
+    assert b.drain_rx_frames() == [] and b.recv() is None
 
 
 def test_can_filters_are_acceptance_filters(sched, channel):
