@@ -211,7 +211,7 @@ def _frame_bits_tables(arbitration_id: int, data: bytes) -> int:
 #: tuple built; ``functools.lru_cache`` cost ≈ 3 % of the ``full`` network's time, session 8).
 #: At most :data:`_BITS_PER_ID` payloads are kept per identifier: status frames change their
 #: data every period, so an hour-long run would otherwise grow it without bound.
-_BITS_CACHE: Final[dict[int, dict[bytes, int]]] = {}
+_BITS_CACHE: Final[list[Optional[dict[bytes, int]]]] = [None] * 0x800
 _BITS_PER_ID: Final = 256
 #: the compiled bit-serial kernel, or None without numba (then the tables)
 _BITS_KERNEL: Final[Any] = _bitkernel.frame_bits_kernel if _bitkernel.JIT else None
@@ -219,7 +219,7 @@ _BITS_KERNEL: Final[Any] = _bitkernel.frame_bits_kernel if _bitkernel.JIT else N
 
 def clear_frame_bits_cache() -> None:
     """Empty the cache of :func:`frame_bits` (tests that time or compare its two paths)."""
-    _BITS_CACHE.clear()
+    _BITS_CACHE[:] = [None] * 0x800
 
 
 def frame_bits(arbitration_id: int, data: bytes) -> int:
@@ -251,7 +251,7 @@ def frame_bits(arbitration_id: int, data: bytes) -> int:
     BusError
         For an identifier above 0x7FF or more than 8 data bytes.
     """
-    per_id = _BITS_CACHE.get(arbitration_id)
+    per_id = _BITS_CACHE[arbitration_id] if 0 <= arbitration_id <= 0x7FF else None
     if per_id is not None:
         cached = per_id.get(data)
         if cached is not None:
@@ -267,7 +267,8 @@ def frame_bits(arbitration_id: int, data: bytes) -> int:
     else:
         bits = _frame_bits_tables(arbitration_id, data)
     if per_id is None:
-        per_id = _BITS_CACHE[arbitration_id] = {}
+        per_id = {}
+        _BITS_CACHE[arbitration_id] = per_id
     elif len(per_id) >= _BITS_PER_ID:
         per_id.clear()
     per_id[bytes(data)] = bits
@@ -677,14 +678,16 @@ class CanNetwork:
         #: that identifier, in attach order, built on first use and dropped whenever a bus is
         #: attached, detached or changes its filters. Delivery then costs per *accepting*
         #: receiver, not per attached node.
-        self._rx_table: dict[int, tuple] = {}
+        self._rx_table: list[Optional[tuple]] = [None] * 0x800
         self._start_us = scheduler.now_us
         # statistics
         self.frames = 0
         self.bits = 0
         self.busy_us = 0
-        self.per_id: dict[int, int] = {}
-        self.max_latency_us: dict[int, int] = {}
+        #: frames sent and longest submit-to-start wait [µs] per identifier, indexed by it
+        #: (lists: no boxed integer key hashed and compared per frame); -1: never sent
+        self._frames_by_id: list[int] = [0] * 0x800
+        self._max_latency_by_id: list[int] = [-1] * 0x800
         self._window_busy: dict[int, int] = {}
         self.closed = False
         self._taps: list = []
@@ -712,7 +715,7 @@ class CanNetwork:
             self._buses.append(bus)
             self._queues[id(bus)] = deque()
             self._errors[id(bus)] = NodeErrorState(getattr(bus, "name", repr(bus)))
-            self._rx_table.clear()
+            self._rx_table[:] = [None] * 0x800
 
     def detach(self, bus) -> None:
         """Detach a bus; its queued, not yet started frames are dropped."""
@@ -721,7 +724,7 @@ class CanNetwork:
             self._npending -= len(self._queues.pop(id(bus)))
             self._active.pop(id(bus), None)
             self._errors.pop(id(bus), None)
-            self._rx_table.clear()
+            self._rx_table[:] = [None] * 0x800
 
     def set_tx_buffers(self, bus, n: int, tx_priority) -> None:
         """Give an attached node ``n`` hardware transmit buffers chosen by TXP
@@ -743,7 +746,7 @@ class CanNetwork:
     def filters_changed(self) -> None:
         """An attached bus changed its acceptance filters (SimBus calls this from
         ``set_filters``): the identifier -> receivers table is rebuilt on demand."""
-        self._rx_table.clear()
+        self._rx_table[:] = [None] * 0x800
 
     def _receivers(self, arbitration_id: int) -> tuple:
         """``((bus, enqueue, enqueue_frame), ...)`` for the buses that accept
@@ -920,13 +923,12 @@ class CanNetwork:
                 return
         latency = now_us - best.submit_us
         aid = best.arbitration_id
-        max_lat = self.max_latency_us
-        if latency > max_lat.get(aid, -1):
+        max_lat = self._max_latency_by_id
+        if latency > max_lat[aid]:
             max_lat[aid] = latency
         self.frames += 1
         self.bits += bits
-        per_id = self.per_id
-        per_id[aid] = per_id.get(aid, 0) + 1
+        self._frames_by_id[aid] += 1
         if now_us // WINDOW_US == (now_us + dur_us - 1) // WINDOW_US:    # within one load window
             self.busy_us += dur_us
             w = now_us // WINDOW_US
@@ -972,7 +974,7 @@ class CanNetwork:
             lost = self._after_success(now_us, pending)
 
         aid = pending.arbitration_id
-        receivers = self._rx_table.get(aid)
+        receivers = self._rx_table[aid]
         if receivers is None:
             receivers = self._receivers(aid)
         taps = self._taps
@@ -1263,6 +1265,17 @@ class CanNetwork:
         return sum(len(q) for q in self._queues.values())
 
     # -- statistics -------------------------------------------------------------------------
+    @property
+    def per_id(self) -> dict[int, int]:
+        """Frames sent per identifier, ``{id: frames}`` in identifier order (identifiers sent)."""
+        return {i: n for i, n in enumerate(self._frames_by_id) if n}
+
+    @property
+    def max_latency_us(self) -> dict[int, int]:
+        """Longest wait from submission to the start of transmission per identifier, µs,
+        ``{id: µs}`` in identifier order (identifiers sent)."""
+        return {i: v for i, v in enumerate(self._max_latency_by_id) if v >= 0}
+
     def stats(self) -> dict:
         """Traffic statistics since creation.
 
@@ -1292,8 +1305,8 @@ class CanNetwork:
             "elapsed_us": elapsed,
             "load_pct": 100.0 * self.busy_us / elapsed if elapsed > 0 else 0.0,
             "peak_load_pct": peak,
-            "per_id": dict(sorted(self.per_id.items())),
-            "max_latency_us": dict(sorted(self.max_latency_us.items())),
+            "per_id": self.per_id,
+            "max_latency_us": self.max_latency_us,
             "pending": self.pending_frames(),
             "error_frames": self.error_frames,
             "error_bits": self.error_bits,

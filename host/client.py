@@ -34,7 +34,10 @@ from boards.registry import NODE_NAMES, REGISTRY, network_nodes, nodes_of_kind
 from bus.units import ARCSEC_PER_REV, TICK_US, duty_to_q15, q15_to_duty
 
 #: identifier -> decoder of the frame table (``bus.protocol.decode`` without its call, per frame)
-_DECODERS: Final = {cob: entry[1].decode for cob, entry in P.COB_TABLE.items()}
+#: decoder per 11-bit identifier, indexed by it (a list: no boxed integer key hashed per frame)
+_DECODERS: Final[list[Any]] = [None] * 0x800
+for _cob, _entry in P.COB_TABLE.items():
+    _DECODERS[_cob] = _entry[1].decode
 #: flag masks as plain ints (an IntFlag operation is a Python-level call, per frame)
 _POSITION_BAD: Final = int(P.PositionFlags.CRC_ERROR | P.PositionFlags.INVALID)
 _AUX_TURNS_UNKNOWN: Final = int(P.AuxFlags.TURNS_UNKNOWN)
@@ -373,7 +376,7 @@ class HostClient(HostTiming):
         if self.canopen_notify is not None and (cob >> 7) in (0x1, 0xE):   # EMCY, heartbeat
             self.canopen_notify(cob, data, now)
         try:
-            decoder = _DECODERS.get(cob)              # P.decode, inlined (every frame)
+            decoder = _DECODERS[cob] if 0 <= cob <= 0x7FF else None   # P.decode, inlined
             frame = decoder(data) if decoder is not None else P.decode(cob, data)
         except MalformedFrame as exc:
             self.malformed_frames += 1
