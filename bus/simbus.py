@@ -12,9 +12,10 @@ Semantics that differ from a hardware bus, because time is simulated:
   scheduler is not running. (BusABC's ``recv(None)`` would spin forever; it is overridden.)
 * ``can_filters`` act as the controller's acceptance filters: a frame that does not match is
   dropped at delivery and raises no receive interrupt.
-* Received ``can.Message`` objects are **shared read-only**: one Message per frame is built at
-  the end of transmission and the same instance goes to every receiver (no per-receiver copy,
-  unlike python-can ``virtual``). Receivers must not mutate it; copy it if you need to.
+* Each receiver gets its own ``can.Message``, built when the program reads the frame
+  (``recv``, ``drain_rx``): the network queues a :class:`~bus.network.RxFrame` (end time,
+  identifier, data) in every accepting bus and builds no Message for the emulated boards, whose
+  CAN controllers read the RxFrame itself (``drain_rx_frames``; docs/performance.md, session 8).
 * ``set_rx_callback(fn)``: ``fn()`` is called at the frame's end time, once every receiver holds
   the frame (inside the network's ``PRIO_CAN`` completion event), after each accepted
   delivery — the receive interrupt. Plain python-can buses have no such hook; boards poll.
@@ -131,7 +132,9 @@ class SimBus(can.BusABC):
         return self._matches_filters(can.Message(arbitration_id=arbitration_id, is_extended_id=False))
 
     def _deliver(self, msg: can.Message) -> bool:
-        """Called by the network at the end of a frame (shared read-only ``msg``).
+        """Deliver ``msg`` through the acceptance filters (the network's entry for attached
+        objects without ``_accepts``; it reaches a SimBus through ``_enqueue_frame`` instead).
+        ``msg`` may be shared with other receivers: read-only.
 
         Returns True when the frame was queued and a receive interrupt is installed: the network
         then calls :meth:`_fire` once every receiver has the frame, at the frame's end time.
