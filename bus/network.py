@@ -207,8 +207,9 @@ def _frame_bits_tables(arbitration_id: int, data: bytes) -> int:
     return nbits + stuffs + 13       # + CRC delim, ACK slot, ACK delim, 7 EOF, 3 IFS
 
 
-#: identifier -> {data: bits}: the cache of :func:`frame_bits` (two dictionary lookups, no key
-#: tuple built; ``functools.lru_cache`` cost ≈ 3 % of the ``full`` network's time, session 8).
+#: the cache of :func:`frame_bits`: indexed by the identifier, ``{data: bits}`` (one list index
+#: and one dictionary lookup, no key tuple built; ``functools.lru_cache`` cost ≈ 3 % of the
+#: ``full`` network's instructions, session 8).
 #: At most :data:`_BITS_PER_ID` payloads are kept per identifier: status frames change their
 #: data every period, so an hour-long run would otherwise grow it without bound.
 _BITS_CACHE: Final[list[Optional[dict[bytes, int]]]] = [None] * 0x800
