@@ -29,9 +29,23 @@ def test_heartbeat_lost_emcy_and_error_reset(node, conf, check):
         node.remote.sdo[0x1016][1].raw = (HOST_NODE << 16) | time_ms
         t0 = link.now()
         link.wait(2.5)
+        t_quiet = link.now()
         em = [e for e in emcy_frames(link.frames, node.node_id) if e[0] >= t0 and e[1] == code]
-        check("emcy.heartbeat_consumer.quiet", node, f"no EMCY while the host beats every 1 s (0x1016 = {time_ms} ms)",
-              len(em), not em)
+        # The statement holds while the host beats within the consumer time. A host process that
+        # was itself descheduled past it (seen in the QEMU guest's emulated CPUs, session 8) makes
+        # the EMCY the right reaction, so the host's own longest gap between beats (on the link's
+        # clock, from the last beat before t0) is measured and reported, and then not held
+        # against the device.
+        sent = [f.t for f in link.sent if f.cob_id == 0x700 + HOST_NODE and f.t <= t_quiet]
+        before = [t for t in sent if t < t0]
+        beats = ([before[-1]] if before else []) + [t for t in sent if t >= t0] + [t_quiet]
+        max_gap = max((b - a for a, b in zip(beats, beats[1:])), default=0.0)
+        host_late = max_gap > time_ms / 1000
+        check("emcy.heartbeat_consumer.quiet", node,
+              f"no EMCY while the host beats every 1 s, within 0x1016 = {time_ms} ms",
+              f"{len(em)} EMCY; the host's longest gap between beats {max_gap * 1e3:.0f} ms"
+              + (" (late: an EMCY is then the right reaction)" if host_late else ""),
+              not em or host_late)
         link.heartbeat_on = False
         t1 = link.now()
         beats = [f.t for f in link.sent if f.cob_id == 0x700 + HOST_NODE and f.t <= t1]
