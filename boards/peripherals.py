@@ -428,17 +428,11 @@ class CanController:
 
     def _rx_interrupt(self, *args) -> None:
         # Hardware fills its buffers, then the ISR empties them one by one.
-        drain = self._drain
-        if drain is None:
-            self._fill_buffers()
-            self._service()
-            return
-        # schmidt-sim (drain_rx): _fill_buffers + _service inlined, the same steps in the same
-        # order (the receive interrupt of every frame on the bus: the hot path)
         hw, n, accept = self._hw, self.rx_buffers, self.accept
         on_frame = self.on_frame
         if on_frame is not None and self._drain_frames is not None and not hw:
-            # the same steps on RxFrame objects: no can.Message per frame
+            # schmidt-sim (the hot path): _fill_buffers + _service on RxFrame objects, the same
+            # steps in the same order, no can.Message per frame
             frames: list[RxFrame] = self._drain_frames()
             kept: list[RxFrame] = []
             for fr in frames:
@@ -452,18 +446,8 @@ class CanController:
                 self.rx_frames += 1
                 on_frame(fr.arbitration_id, fr.data)
             return
-        for msg in drain():
-            if not accept(msg.arbitration_id):
-                continue
-            if len(hw) >= n:
-                self.rx_overflows += 1      # RXnOVR: the frame is lost
-                continue
-            hw.append(msg)
-        while hw:
-            msg = hw.popleft()
-            self.rx_frames += 1
-            if self.on_rx is not None:
-                self.on_rx(msg)
+        self._fill_buffers()
+        self._service()
 
     def poll(self) -> None:
         """Polled receive, on a bus without a receive interrupt (python-can ``virtual``,
