@@ -60,6 +60,7 @@ import can
 
 from bus import bitkernel as _bitkernel
 from bus.errors import BusError
+from bus.jit_entry import entry_point
 from bus.scheduler import PRIO_CAN, Event, Scheduler
 
 __all__ = ["CanNetwork", "TxBuffers", "RxFrame", "get_network", "frame_bits", "clear_frame_bits_cache",
@@ -214,8 +215,10 @@ def _frame_bits_tables(arbitration_id: int, data: bytes) -> int:
 #: data every period, so an hour-long run would otherwise grow it without bound.
 _BITS_CACHE: Final[list[Optional[dict[bytes, int]]]] = [None] * 0x800
 _BITS_PER_ID: Final = 256
-#: the compiled bit-serial kernel, or None without numba (then the tables)
-_BITS_KERNEL: Final[Any] = _bitkernel.frame_bits_kernel if _bitkernel.JIT else None
+#: the compiled bit-serial kernel (its entry point for four ``int64``: no numba type dispatch per
+#: frame, :mod:`bus.jit_entry`), or None without numba (then the tables)
+_BITS_KERNEL: Final[Any] = (entry_point(_bitkernel.frame_bits_kernel, (0x7FF, 8, 0, 0)) if _bitkernel.JIT
+                            else None)
 
 
 def clear_frame_bits_cache() -> None:

@@ -42,8 +42,10 @@ from __future__ import annotations
 
 import math
 import random
+from typing import Any
 
-from bus.units import ARCSEC_PER_RAD  # the one module of bus that plant imports (a constants leaf)
+from bus.jit_entry import entry_point  # a leaf of bus (standard library only), as bus.units
+from bus.units import ARCSEC_PER_RAD  # a constants leaf of bus
 from plant import kernel
 from plant.effects import Backlash
 from plant.gear_train_disturbance import line_rows, lines_table
@@ -164,6 +166,8 @@ class AxisPlant:
         self.now_us = 0
         self.duty_a = 0.0
         self.duty_b = 0.0
+        #: the kernel's substep loop, resolved at the first advance (:meth:`_resolve_run`)
+        self._run: Any = None
         self.reset()
 
     # ------------------------------------------------------------------ control inputs
@@ -262,14 +266,16 @@ class AxisPlant:
             return
         if self._additive:
             out = self._run_with_effects(now, t_us)
-        elif self._lines.shape[0]:
-            run = kernel.rigid_run_lines if self.rigid else kernel.twin_run_lines
-            out = run(self.state_tuple(), self._p, self._lines_k, self.duty_a, self.duty_b, t_us - now,
-                      self.max_substep_us)
         else:
-            run = kernel.rigid_run if self.rigid else kernel.twin_run
-            out = run(self.state_tuple(), self._p, self.duty_a, self.duty_b, t_us - now,
-                      self.max_substep_us)
+            run = self._run
+            if run is None:
+                run = self._run = self._resolve_run()
+            if self._lines.shape[0]:
+                out = run(self.state_tuple(), self._p, self._lines_k, self.duty_a, self.duty_b, t_us - now,
+                          self.max_substep_us)
+            else:
+                out = run(self.state_tuple(), self._p, self.duty_a, self.duty_b, t_us - now,
+                          self.max_substep_us)
         X, ta, tb, ff, peak_a, peak_b, over_a, over_b = out
         self._set_state(X)
         self.now_us = t_us
@@ -281,6 +287,19 @@ class AxisPlant:
         if over_a or over_b:
             oa, ob = self.current_over_rating_us
             self.current_over_rating_us = (oa + over_a, ob + over_b)
+
+    def _resolve_run(self) -> Any:
+        """The kernel's substep loop for this plant (rigid or twin, with or without gear lines),
+        as the compiled entry point for its argument types (:func:`bus.jit_entry.entry_point`:
+        no numba type dispatch per call; the plant's argument types never change)."""
+        lines = self._lines.shape[0] > 0
+        if self.rigid:
+            fn = kernel.rigid_run_lines if lines else kernel.rigid_run
+        else:
+            fn = kernel.twin_run_lines if lines else kernel.twin_run
+        state = tuple(float(v) for v in self.state_tuple())
+        head = (state, self._p, self._lines_k) if lines else (state, self._p)
+        return entry_point(fn, head + (0.0, 0.0, 1, max(1, self.max_substep_us)))
 
     def _run_with_effects(self, now: int, t_us: int) -> tuple:
         """The kernel's substep loop with the additive load evaluated at each midpoint (Python)."""

@@ -61,3 +61,34 @@ def test_substeps_split_spans_exactly():
     a = kernel.twin_run(x0, ax._p, 0.4, 0.1, 730, 500)[0]
     b = kernel.twin_run(kernel.twin_run(x0, ax._p, 0.4, 0.1, 500, 500)[0], ax._p, 0.4, 0.1, 230, 500)[0]
     assert a == b
+
+
+def test_entry_point_is_the_compiled_kernel_and_converts_ints_to_floats():
+    """bus.jit_entry.entry_point: the compiled version itself (no dispatcher), same results as the
+    dispatcher; an ``int`` where the kernel computes in float64 is converted, not mis-read; a plain
+    Python function comes back unchanged."""
+    from bus.bitkernel import frame_bits_kernel
+    from bus.jit_entry import entry_point
+
+    ax = AxisPlant(load_parameters().ra)
+    state = tuple(float(v) for v in ax.state_tuple())
+    fast = entry_point(kernel.twin_run, (state, ax._p, 0.0, 0.0, 1, ax.max_substep_us))
+    if not kernel.JIT:
+        assert fast is kernel.twin_run
+        pytest.skip("numba not installed or SCHMIDT_FIL_JIT=0: nothing to resolve")
+    assert fast is not kernel.twin_run and not hasattr(fast, "overloads")
+    x = state
+    for duty_a, duty_b in [(0.3, 0.075), (0.3, 0.075), (0, 1), (0.05, 0.2)]:   # ints included
+        a = fast(x, ax._p, duty_a, duty_b, 5_000, ax.max_substep_us)
+        b = kernel.twin_run(x, ax._p, float(duty_a), float(duty_b), 5_000, ax.max_substep_us)
+        assert a == b
+        x = a[0]
+    assert x != state                               # it moved: the comparison was not of rest states
+    bits = entry_point(frame_bits_kernel, (0x7FF, 8, 0, 0))
+    assert bits is not frame_bits_kernel
+    for args in [(0x181, 8, 0x12345678, 0x9ABCDEF0), (0x000, 0, 0, 0), (0x7FF, 2, 0, 0xFFFF)]:
+        assert bits(*args) == frame_bits_kernel(*args)
+
+    def plain(v):
+        return v + 1
+    assert entry_point(plain, (1,)) is plain

@@ -54,7 +54,7 @@ print("native", len(native_modules()))
 """
 
 
-def count(network: str, seconds: float) -> tuple[int, int]:
+def count(network: str, seconds: float, keep: str | None = None) -> tuple[int, int]:
     """Instructions (callgrind ``Ir``) executed while ``seconds`` of ``network`` run, and how
     many of ``bus._native.NATIVE_MODULES`` ran compiled.
 
@@ -72,6 +72,8 @@ def count(network: str, seconds: float) -> tuple[int, int]:
             ["valgrind", "--tool=callgrind", f"--callgrind-out-file={tmp}/cg.out",
              "--toggle-collect=functools_reduce*", sys.executable, str(script)],
             capture_output=True, text=True, cwd=tmp)
+        if keep:
+            shutil.copyfile(f"{tmp}/cg.out", keep)
     m = re.search(r"Collected\s*:\s*(\d+)", out.stderr)
     n = re.search(r"^native (\d+)$", out.stdout, re.M)
     if out.returncode != 0 or m is None or n is None:
@@ -83,8 +85,9 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--network", default="full")
     p.add_argument("--seconds", type=float, default=2.0)
+    p.add_argument("--keep", metavar="FILE", help="copy callgrind's output here (read it with callgrind_annotate)")
     a = p.parse_args(argv)
-    ir, native = count(a.network, a.seconds)
+    ir, native = count(a.network, a.seconds, a.keep)
     print(f"{a.network}: {ir / a.seconds / 1e6:.1f} M instructions per simulated second "
           f"({ir} over {a.seconds:g} s; {native} hot-path modules compiled)")
     return 0
