@@ -60,7 +60,11 @@ def run(args: argparse.Namespace) -> int:
     print(f"final:    rms {f['rms']:.4g}, relative error {f['relative_error_pct']:.3f} %")
     if "validation" in rep:
         v = rep["validation"]
-        print(f"held-out: rms {v['rms_before']:.4g} -> {v['rms_after']:.4g}")
+        pct = 100.0 * (v["rms_after"] / v["rms_before"] - 1.0)
+        lib = v.get("rms_after_library_only")
+        print(f"held-out: rms {v['rms_before']:.4g} -> {v['rms_after']:.4g} ({pct:+.1f} %)"
+              + (f"; library effects alone (the plant file's model): {lib:.4g} ({100.0 * (lib / v['rms_before'] - 1.0):+.1f} %)"
+                 if lib is not None and lib != v["rms_after"] else ""))
     if "closed_loop" in rep:
         c = rep["closed_loop"]
         print(f"closed loop force error: baseline {c['baseline_pct']:.2f} %, with effects {c['final_with_effects_pct']:.2f} %")

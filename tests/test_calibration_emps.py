@@ -65,7 +65,14 @@ def test_emps_loop_finds_documented_effects(emps_report):
     assert af["viscous_neg_n_s_m"] > af["viscous_pos_n_s_m"]  # PDF: 166.7 vs 240.4
     ripple = [e for e in rep["effects"] if e["kind"] == "position_periodic"]
     assert ripple and ripple[0]["params"]["period_m"] == pytest.approx(2.5e-3, rel=0.01)
-    assert rep["validation"]["rms_after"] < 0.95 * rep["validation"]["rms_before"]
+    v = rep["validation"]
+    # issue 7's target: the held-out rms of the calibrated model falls by >= 20 %. That model keeps the
+    # torque-motion delay description (a property of the drive: docs/calibration.md); the plant file's
+    # library effects alone must still lower it, by less.
+    assert v["rms_after"] <= 0.80 * v["rms_before"]
+    assert v["rms_after"] <= v["rms_after_library_only"] < 0.95 * v["rms_before"]
+    delay = [u for u in rep["unexplained"] if u.get("kind") == "delay"]
+    assert delay and "held-out prediction" in delay[0]["note"] and 0 < delay[0]["shift_s"] < 0.005
     assert rep["final"]["rms"] < rep["baseline"]["rms"]
     for key in ("baseline", "effects", "final", "validation", "unexplained", "model_file"):
         assert key in rep

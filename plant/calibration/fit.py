@@ -592,12 +592,24 @@ def fit_model(
     )
 
 
-def predict(prep: Prepared, fit: FitResult, refit_phases: bool = True, return_coef: bool = False):
+#: Columns of the out-of-library descriptions that describe the *machine* (its drive and
+#: measurement chain) and so hold on any record of it: the delay between torque and motion (the jerk
+#: column; EMPS: ≈ 0.3 ms, the current loop's lag behind its reference, which is what EMPS logs as
+#: force). A held-out record is predicted with them. The other descriptions describe the *record*
+#: and are dropped on another one: the friction drift is a function of the record's own normalised
+#: time, the velocity function's knots are quantiles of the record's speeds.
+TRANSFERABLE_COLUMNS = ("nz_delay_jerk",)
+
+
+def predict(prep: Prepared, fit: FitResult, refit_phases: bool = True, return_coef: bool = False,
+            library_only: bool = False):
     """Evaluate a fitted model on another prepared record (held-out validation).
 
     All parameters are taken from ``fit`` except, if ``refit_phases``, the *phases* of
     position- and time-periodic terms, which are record-specific (their origin is arbitrary):
-    each phase is chosen to minimise the residual with the amplitude kept fixed.
+    each phase is chosen to minimise the residual with the amplitude kept fixed. Out-of-library
+    descriptions of the record are dropped; those of the machine (:data:`TRANSFERABLE_COLUMNS`) are
+    kept unless ``library_only`` (the model the calibrated plant file can carry).
 
     Returns
     -------
@@ -607,7 +619,7 @@ def predict(prep: Prepared, fit: FitResult, refit_phases: bool = True, return_co
     names, X = design(prep, fit.spec)
     coef = fit.coef.copy()
     for i, nm in enumerate(names):
-        if nm.startswith("nz_"):  # out-of-library descriptions are record-specific, not part of the model
+        if nm.startswith("nz_") and (library_only or nm not in TRANSFERABLE_COLUMNS):
             coef[i] = 0.0
     y = prep.y_dec
     if refit_phases:
