@@ -50,7 +50,6 @@ closes the old one (its buses are detached). :meth:`CanNetwork.close` unregister
 from __future__ import annotations
 
 import functools
-import heapq
 import random
 from collections import deque
 
@@ -524,6 +523,48 @@ class _Pending:
         self.key = (arbitration_id << 48) | seq
 
 
+def _heads_push(heap: list[_Pending], item: _Pending) -> None:
+    """Push onto the arbitration heap, ordered by :attr:`_Pending.key` (``heapq.heappush`` on
+    the frames themselves: compiled, a C compare of two integer fields and no ``(key, frame)``
+    tuple per push; session 9)."""
+    heap.append(item)
+    pos = len(heap) - 1
+    key = item.key
+    while pos > 0:
+        parent_pos = (pos - 1) >> 1
+        parent = heap[parent_pos]
+        if key < parent.key:
+            heap[pos] = parent
+            pos = parent_pos
+            continue
+        break
+    heap[pos] = item
+
+
+def _heads_pop(heap: list[_Pending]) -> _Pending:
+    """Remove and return the frame with the smallest key (``heapq.heappop``)."""
+    last = heap.pop()
+    if not heap:
+        return last
+    first = heap[0]
+    end = len(heap)
+    pos = 0
+    key = last.key
+    child = 1
+    while child < end:
+        right = child + 1
+        if right < end and heap[right].key < heap[child].key:
+            child = right
+        if heap[child].key < key:
+            heap[pos] = heap[child]
+            pos = child
+            child = 2 * pos + 1
+        else:
+            break
+    heap[pos] = last
+    return first
+
+
 class NodeErrorState:
     """Fault-confinement state of one attached node (what a controller's TEC/REC registers hold).
 
@@ -666,13 +707,13 @@ class CanNetwork:
         self.channel = channel
         self.bitrate = bitrate
         self._buses: list = []
-        self._queues: dict[int, Any] = {}        # id(bus) -> deque of _Pending
-        self._active: dict[int, Any] = {}        # the non-empty ones (what arbitration scans)
-        #: fault-free path: a heap of (key, pending) holding the head frame of every non-empty
+        self._queues: dict[int, Any] = {}        # bus -> deque of _Pending
+        self._active: dict[Any, Any] = {}        # the non-empty ones (what arbitration scans)
+        #: fault-free path: a heap of the pending frames, by key, holding the head frame of every non-empty
         #: queue, so arbitration costs O(log nodes) however many nodes have a frame waiting
         #: (entries of detached buses are skipped when popped). Once a fault is injected the
         #: network scans ``_active`` instead (suspend times, retransmissions at the head).
-        self._heads: list[tuple[int, _Pending]] = []
+        self._heads: list[_Pending] = []
         self._seq = 0
         self._busy = False
         self._arb_scheduled = False
@@ -703,7 +744,7 @@ class CanNetwork:
         # fault confinement (inactive until a fault is injected: fast path unchanged)
         self._faulty = False
         self._rules: list = []
-        self._errors: dict = {}          # id(bus) -> NodeErrorState
+        self._errors: dict = {}          # bus -> NodeErrorState
         self.rng = random.Random(0)
         self.error_frames = 0
         self.error_bits = 0
@@ -717,17 +758,17 @@ class CanNetwork:
             raise BusError(f"CanNetwork {self.channel!r} is closed")
         if bus not in self._buses:
             self._buses.append(bus)
-            self._queues[id(bus)] = deque()
-            self._errors[id(bus)] = NodeErrorState(getattr(bus, "name", repr(bus)))
+            self._queues[bus] = deque()
+            self._errors[bus] = NodeErrorState(getattr(bus, "name", repr(bus)))
             self._rx_table[:] = [None] * 0x800
 
     def detach(self, bus) -> None:
         """Detach a bus; its queued, not yet started frames are dropped."""
         if bus in self._buses:
             self._buses.remove(bus)
-            self._npending -= len(self._queues.pop(id(bus)))
-            self._active.pop(id(bus), None)
-            self._errors.pop(id(bus), None)
+            self._npending -= len(self._queues.pop(bus))
+            self._active.pop(bus, None)
+            self._errors.pop(bus, None)
             self._rx_table[:] = [None] * 0x800
 
     def set_tx_buffers(self, bus, n: int, tx_priority) -> None:
@@ -739,7 +780,7 @@ class CanNetwork:
         BusError
             If ``bus`` is not attached, or has frames queued or on the wire.
         """
-        key = id(bus)
+        key = bus
         q = self._queues.get(key)
         if q is None:
             raise BusError(f"{bus!r} is not attached to CanNetwork {self.channel!r}")
@@ -802,12 +843,12 @@ class CanNetwork:
         """
         aid = msg.arbitration_id
         if msg.is_extended_id or aid > 0x7FF or aid < 0:
-            if id(bus) not in self._queues:
+            if bus not in self._queues:
                 raise BusError(f"bus {bus!r} is not attached to CanNetwork {self.channel!r}")
             raise BusError(f"CAN 2.0A only: 11-bit standard ids (is_extended_id=False), "
                            f"got 0x{aid:X} extended={msg.is_extended_id}")
         if msg.is_remote_frame or msg.is_error_frame or msg.is_fd:
-            if id(bus) not in self._queues:
+            if bus not in self._queues:
                 raise BusError(f"bus {bus!r} is not attached to CanNetwork {self.channel!r}")
             raise BusError("remote, error and FD frames are not emulated")
         self.submit_frame(bus, aid, bytes(msg.data))
@@ -823,7 +864,7 @@ class CanNetwork:
         can.CanOperationError
             While the node is bus-off.
         """
-        queue = self._queues.get(id(bus))
+        queue = self._queues.get(bus)
         if queue is None:
             raise BusError(f"bus {bus!r} is not attached to CanNetwork {self.channel!r}")
         aid = arbitration_id
@@ -833,7 +874,7 @@ class CanNetwork:
         if len(data) > 8:
             raise BusError(f"CAN 2.0A carries at most 8 data bytes, got {len(data)}")
         if self._faulty:
-            es = self._errors[id(bus)]
+            es = self._errors[bus]
             if es.state == BUS_OFF:
                 es.dropped_bus_off += 1
                 raise can.CanOperationError(f"{es.name}: CAN controller is bus-off "
@@ -842,10 +883,10 @@ class CanNetwork:
         self._npending += 1
         pending = _Pending(bus, aid, data, self.scheduler.now_us, self._seq)
         queue.append(pending)
-        self._active[id(bus)] = queue
+        self._active[bus] = queue
         if not self._faulty and (queue.head if queue.__class__ is TxBuffers
                                  else queue[0]) is pending:   # (a FIFO: it is the only one)
-            heapq.heappush(self._heads, (pending.key, pending))
+            _heads_push(self._heads, pending)
         if not self._busy and not self._arb_scheduled:
             self._arb_scheduled = True
             sched = self.scheduler
@@ -866,8 +907,8 @@ class CanNetwork:
         if self._faulty:
             errs = self._errors
             wake = None
-            for key_id, queue in self._active.items():
-                su = errs[key_id].suspend_until_us
+            for node, queue in self._active.items():
+                su = errs[node].suspend_until_us
                 if su > now_us:              # error-passive transmitter in suspend transmission
                     wake = su if wake is None or su < wake else wake
                     continue
@@ -885,8 +926,8 @@ class CanNetwork:
             heads = self._heads
             queues = self._queues
             while heads:
-                _, head = heapq.heappop(heads)
-                queue = queues.get(id(head.bus))
+                head = _heads_pop(heads)
+                queue = queues.get(head.bus)
                 if queue is None:                    # its bus was detached meanwhile
                     continue
                 if queue.__class__ is TxBuffers:
@@ -899,7 +940,7 @@ class CanNetwork:
         if best is None:
             self._busy = False
             return
-        bus_key = id(best.bus)
+        bus_key = best.bus
         queue = self._queues[bus_key]
         queue.popleft()
         if queue.__class__ is TxBuffers:
@@ -907,12 +948,12 @@ class CanNetwork:
             if queue._count == 0:
                 del self._active[bus_key]
             elif nxt is not None and not self._faulty:
-                heapq.heappush(self._heads, (nxt.key, nxt))
+                _heads_push(self._heads, nxt)
         elif not queue:
             del self._active[bus_key]
         elif not self._faulty:
             nxt = queue[0]
-            heapq.heappush(self._heads, (nxt.key, nxt))
+            _heads_push(self._heads, nxt)
         self._npending -= 1
         bits = frame_bits(best.arbitration_id, best.data)
         if self.bitrate == 1_000_000:
@@ -964,15 +1005,15 @@ class CanNetwork:
         assert pending is not None            # the completion event runs only for a frame on the wire
         self._current = None
         sender = pending.bus
-        queue = self._queues.get(id(sender))
+        queue = self._queues.get(sender)
         if queue is not None and queue.__class__ is TxBuffers:
             old = queue.head
             queue.sent(pending)                   # its buffer frees; the firmware refills it
             nxt = queue.head
             if nxt is not None:
-                self._active[id(sender)] = queue
+                self._active[sender] = queue
                 if nxt is not old and not self._faulty:
-                    heapq.heappush(self._heads, (nxt.key, nxt))
+                    _heads_push(self._heads, nxt)
         lost = None
         if self._faulty:
             lost = self._after_success(now_us, pending)
@@ -1040,30 +1081,30 @@ class CanNetwork:
         self.bits += total
         self._occupy(now_us, dur_us)
         errs = self._errors
-        tx = errs[id(pending.bus)]
+        tx = errs[pending.bus]
         tx.tx_errors += 1
         tx.tec += 8
         tx._update_state()
         for bus in self._buses:
             if bus is not pending.bus:
-                es = errs[id(bus)]
+                es = errs[bus]
                 if es.state != BUS_OFF:
                     es.rx_errors += 1
                     es.rec += 1
                     es._update_state()
         if tx.state == BUS_OFF:
-            q = self._queues[id(pending.bus)]
+            q = self._queues[pending.bus]
             tx.dropped_bus_off += 1 + len(q)
             self._npending -= len(q)
             q.clear()
-            self._active.pop(id(pending.bus), None)
+            self._active.pop(pending.bus, None)
             if tx.auto_recover:
                 self._start_recovery(tx, now_us + dur_us)
         else:
             tx.retransmissions += 1
-            q = self._queues[id(pending.bus)]
+            q = self._queues[pending.bus]
             q.appendleft(pending)                                 # automatic retransmission
-            self._active[id(pending.bus)] = q
+            self._active[pending.bus] = q
             self._npending += 1
             if tx.state == ERROR_PASSIVE:
                 tx.suspend_until_us = now_us + dur_us + self._bit_us(SUSPEND_BITS)
@@ -1073,13 +1114,13 @@ class CanNetwork:
     def _after_success(self, now_us: int, pending):
         """Counter decrements after a frame completed; returns the receivers that lose it."""
         errs = self._errors
-        tx = errs.get(id(pending.bus))
+        tx = errs.get(pending.bus)
         if tx is not None and tx.tec:
             tx.tec -= 1
             tx._update_state()
         for bus in self._buses:
             if bus is not pending.bus:
-                es = errs[id(bus)]
+                es = errs[bus]
                 if es.rec:
                     es.rec = 127 if es.rec > 127 else es.rec - 1
                     es._update_state()
@@ -1092,7 +1133,7 @@ class CanNetwork:
             return None
         lost = set(self._buses) if rule.receivers is None else set(rule.receivers)
         for bus in lost:
-            es = errs.get(id(bus))
+            es = errs.get(bus)
             if es is not None and bus is not pending.bus:
                 es.frames_lost += 1
         return lost
@@ -1227,7 +1268,7 @@ class CanNetwork:
         aid, data, end_us = node._babble
         if node not in self._buses or (end_us is not None and now_us >= end_us):
             return
-        if not self._queues[id(node)]:
+        if not self._queues[node]:
             self.submit(node, can.Message(arbitration_id=aid, data=data, is_extended_id=False))
 
     def error_state(self, bus) -> NodeErrorState:
@@ -1238,7 +1279,7 @@ class CanNetwork:
         BusError
             If ``bus`` is not attached.
         """
-        es = self._errors.get(id(bus))
+        es = self._errors.get(bus)
         if es is None:
             raise BusError(f"{bus!r} is not attached to CanNetwork {self.channel!r}")
         return es

@@ -321,3 +321,29 @@ def test_arbitration_of_many_nodes_matches_an_independent_model(sched, net):
     expected = _reference_schedule(subs, detach_at, frame_bits)
     assert got == expected
     assert len(got) < len(subs) and any(node == 5 for _, _, node in got)
+
+
+def test_arbitration_heap_pops_in_key_order():
+    """The arbitration heap (bus.network._heads_push/_heads_pop) against a sorted list, on random
+    interleavings of pushes and pops (keys unique, as (identifier << 48) | seq are)."""
+    import random
+
+    from bus.network import _heads_pop, _heads_push, _Pending
+
+    rng = random.Random(5)
+    for trial in range(300):
+        heap: list = []
+        ref: list = []
+        seq = 0
+        for _ in range(rng.randrange(1, 60)):
+            if ref and rng.random() < 0.4:
+                got = _heads_pop(heap)
+                ref.sort(key=lambda p: p.key)
+                assert got is ref.pop(0)
+            else:
+                seq += 1
+                p = _Pending(None, rng.randrange(0x800), b"", 0, seq)
+                _heads_push(heap, p)
+                ref.append(p)
+        ref.sort(key=lambda p: p.key)
+        assert [_heads_pop(heap) for _ in range(len(heap))] == ref
