@@ -348,14 +348,15 @@ class HostClient(HostTiming):
         if drain is not None and type(self)._handle is HostClient._handle:
             # the gateway's bus hands out (id, data, timestamp) tuples: no can.Message per frame
             # (a subclass that observes the Message, BusMonitor, keeps the recv path)
-            handle = self._handle_frame
+            # self._handle_frame called directly: compiled, a native call (a bound-method alias
+            # would go through Python's call protocol and argument parsing for every frame)
             while True:
                 frames = drain()
                 if not frames:
                     return
                 for f in frames:
                     self.frames_received += 1
-                    handle(f[0], f[1])
+                    self._handle_frame(f[0], f[1])
         while True:
             msg = self.bus.recv(0.0)
             if msg is None:
