@@ -707,7 +707,8 @@ class CanNetwork:
         self.channel = channel
         self.bitrate = bitrate
         self._buses: list = []
-        self._queues: dict[int, Any] = {}        # bus -> deque of _Pending
+        self._queues: dict[Any, Any] = {}        # bus -> deque of _Pending (keyed by the bus object:
+        #                                          no id() integer boxed and hashed per frame)
         self._active: dict[Any, Any] = {}        # the non-empty ones (what arbitration scans)
         #: fault-free path: a heap of the pending frames, by key, holding the head frame of every non-empty
         #: queue, so arbitration costs O(log nodes) however many nodes have a frame waiting
@@ -780,13 +781,12 @@ class CanNetwork:
         BusError
             If ``bus`` is not attached, or has frames queued or on the wire.
         """
-        key = bus
-        q = self._queues.get(key)
+        q = self._queues.get(bus)
         if q is None:
             raise BusError(f"{bus!r} is not attached to CanNetwork {self.channel!r}")
         if q or (self._current is not None and self._current.bus is bus):
             raise BusError(f"set_tx_buffers: {bus!r} has frames queued")
-        self._queues[key] = TxBuffers(n, tx_priority)
+        self._queues[bus] = TxBuffers(n, tx_priority)
 
     def filters_changed(self) -> None:
         """An attached bus changed its acceptance filters (SimBus calls this from
