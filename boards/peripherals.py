@@ -432,7 +432,10 @@ class CanController:
         on_frame = self.on_frame
         if on_frame is not None and self._drain_frames is not None and not hw:
             # schmidt-sim (the hot path): _fill_buffers + _service on RxFrame objects, the same
-            # steps in the same order, no can.Message per frame
+            # steps in the same order, no can.Message per frame. The accept/overrun loop repeats
+            # _fill_buffers' on purpose: shared through one helper taking either frame type, its
+            # untyped attribute access cost 1.3 % of the full network's instructions (session 9,
+            # 130.6 -> 132.3 M per simulated second); keep the two loops alike.
             frames: list[RxFrame] = self._drain_frames()
             kept: list[RxFrame] = []
             for fr in frames:
