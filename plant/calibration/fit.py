@@ -592,13 +592,14 @@ def fit_model(
     )
 
 
-#: Columns of the out-of-library descriptions that describe the *machine* (its drive and
+#: Out-of-library descriptions (and their columns) that describe the *machine* (its drive and
 #: measurement chain) and so hold on any record of it: the delay between torque and motion (the jerk
 #: column; EMPS: ≈ 0.3 ms, the current loop's lag behind its reference, which is what EMPS logs as
 #: force). A held-out record is predicted with them. The other descriptions describe the *record*
 #: and are dropped on another one: the friction drift is a function of the record's own normalised
 #: time, the velocity function's knots are quantiles of the record's speeds.
-TRANSFERABLE_COLUMNS = ("nz_delay_jerk",)
+TRANSFERABLE_NUISANCE = {"delay": ("nz_delay_jerk",)}
+TRANSFERABLE_COLUMNS = tuple(c for cols in TRANSFERABLE_NUISANCE.values() for c in cols)
 
 
 def predict(prep: Prepared, fit: FitResult, refit_phases: bool = True, return_coef: bool = False,

@@ -51,7 +51,8 @@ import numpy as np
 from scipy import stats
 
 from plant.calibration import residuals as res
-from plant.calibration.fit import FitResult, ModelSpec, Prepared, _solve, design, effective_n, fit_model, predict
+from plant.calibration.fit import (TRANSFERABLE_NUISANCE, FitResult, ModelSpec, Prepared, _solve, design, effective_n,
+                                    fit_model, predict)
 from plant.effects import EFFECT_KINDS, Effect, build_effect
 
 __all__ = ["LoopConfig", "AcceptedEffect", "LoopResult", "fit_baseline", "run_loop", "delta_bic", "cv_compare", "KINDS"]
@@ -63,7 +64,7 @@ OUT_OF_LIBRARY = ("friction_drift", "delay")
 #: Out-of-library descriptions of the machine, not of the record (see
 #: :data:`plant.calibration.fit.TRANSFERABLE_COLUMNS`): with a held-out record they must lower its
 #: rms, as a library effect must, and they stay in its prediction.
-TRANSFERABLE = ("delay",)
+TRANSFERABLE = tuple(TRANSFERABLE_NUISANCE)
 #: Gravity imbalance is tried when the travel spans at least this much [rad] (20°): below it
 #: ``sin θ``, ``cos θ`` are nearly collinear with the offset (cos) and a position-linear torque
 #: (sin), and amplitude and phase trade off against each other.
