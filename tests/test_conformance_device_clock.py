@@ -12,6 +12,7 @@ on the wall clock the same slow board fails (why the device clock exists).
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 
@@ -20,11 +21,17 @@ from host.cli import main
 #: Mean rate of the slow emulator, simulated s per wall s (≈ the 0.27 measured in the CI guest
 #: under load, docs/socketcan.md).
 RATE = 0.3
+#: The emulator's scenario: the one serve runs in the CI guest (the plant's imperfections off, the
+#: file says why). The checks here are about waiting on the devices' clock; with the default
+#: low-preload plant the RA axis stick-slips at FINE and a 1 s rate mean depends on where the
+#: bursts put the window (docs/conformance.md, run 4).
+SCENARIO = Path(__file__).resolve().parent / "guest" / "conform-serve.yaml"
 
 
 def _conform(tmp_path, *args: str, clock: str = "device"):
     out = tmp_path / "conf"
-    code = main(["conform", "--timing", "report", f"--pytest-arg=--cf-emulator-rate={RATE}",
+    code = main(["conform", "--timing", "report", "--scenario", str(SCENARIO),
+                 f"--pytest-arg=--cf-emulator-rate={RATE}",
                  f"--pytest-arg=--cf-clock={clock}", *args, "--out", str(out)])
     return code, json.loads((out / "conformance.json").read_text())
 

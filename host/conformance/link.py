@@ -208,13 +208,35 @@ class Link:
         self.master = MasterNetwork(self, sdo_timeout_s)
         self.heartbeat_on = True
         self.heartbeat_state = 0x05
+        #: test aid (``open_emulator_link(rate=...)``): called by :meth:`now` before it reads; it may
+        #: let the devices run on while the host computes (frames wait in its receive queue)
+        self.host_busy: Optional[Callable[[], None]] = None
         self._wall0 = self.wall()
-        self._next_beat = self.now()
+        self._next_beat = self._now()
         self._close = close
 
     def now(self) -> float:
-        """The link's time, s: the devices' clock (with a :class:`DeviceClock`) or ``wall()``."""
+        """The link's time, s: the devices' clock (with a :class:`DeviceClock`) or ``wall()``,
+        after taking every frame already waiting in the receive queue.
+
+        A window is measured from this value (``t = link.now(); link.send(...);
+        link.wait(dt)``). On the devices' clock, frames still unread when the host stamps its
+        send would advance the clock during the wait although they were on the bus before the
+        send: a host that fell behind reading (a stalled process) would end its windows early.
+        Draining first makes the stamp as fresh as the frames received (docs/conformance.md,
+        "Which clock")."""
+        if self.host_busy is not None:
+            self.host_busy()
+        self._drain()
+        return self._now()
+
+    def _now(self) -> float:
         return self.clock.now if self.clock is not None else self.wall()
+
+    def _drain(self) -> None:
+        """Take every frame already received (no waiting, no advance of simulated time)."""
+        while (m := self.bus.recv(0.0)) is not None:
+            self._take(m)
 
     def clock_summary(self) -> dict:
         """Which clock the link's time is, and how far it and the wall clock advanced."""
@@ -230,13 +252,18 @@ class Link:
     # -------------------------------------------------------------------------- sending
     def send(self, cob_id: int, data: bytes) -> None:
         """Send one standard (11-bit) data frame."""
-        self.sent.append(Frame(self.now(), cob_id, bytes(data), self.wall()))
+        self._drain()                    # stamped as fresh as the frames received (see now())
+        self._transmit(cob_id, data)
+
+    def _transmit(self, cob_id: int, data: bytes) -> None:
+        self.sent.append(Frame(self._now(), cob_id, bytes(data), self.wall()))
         self.bus.send(can.Message(arbitration_id=cob_id, data=bytes(data), is_extended_id=False))
 
     def _beat(self) -> None:
-        if self.heartbeat_on and self.now() >= self._next_beat:
-            self._next_beat = self.now() + 1.0
-            self.send(0x700 + HOST_NODE, bytes((self.heartbeat_state,)))
+        if self.heartbeat_on and self._now() >= self._next_beat:
+            self._next_beat = self._now() + 1.0
+            # not send(): its drain would take frames that the poll calling this does not return
+            self._transmit(0x700 + HOST_NODE, bytes((self.heartbeat_state,)))
 
     # -------------------------------------------------------------------------- receiving
     def _take(self, msg: can.Message) -> Frame:
@@ -261,11 +288,11 @@ class Link:
             if self.clock is not None:       # ``until_s`` is device time: one step of ``wall``
                 self._advance(self.wall() + self.step_s)
             else:
-                self._advance(min(until_s, self.now() + self.step_s))
+                self._advance(min(until_s, self._now() + self.step_s))
             while (m := self.bus.recv(0.0)) is not None:
                 got.append(self._take(m))
         else:
-            timeout = 0.02 if self.clock is not None else max(0.0, min(until_s - self.now(), 0.05))
+            timeout = 0.02 if self.clock is not None else max(0.0, min(until_s - self._now(), 0.05))
             m = self.bus.recv(timeout)
             while m is not None:
                 got.append(self._take(m))
@@ -274,7 +301,7 @@ class Link:
         return got
 
     def _going(self, end: float, wall_end: float) -> bool:
-        if self.now() >= end:
+        if self._now() >= end:
             return False
         if self.clock is not None and self.wall() >= wall_end:
             self.capped_waits += 1          # the devices' clock stood still: reported
@@ -285,9 +312,9 @@ class Link:
         """(end on the link's clock, end on the wall clock) of a window of ``dt_s``: on the
         devices' clock lengthened by its resolution and capped at ``dt / min_rate`` wall s."""
         if self.clock is None:
-            return self.now() + dt_s, float("inf")
+            return self._now() + dt_s, float("inf")
         dt_s += self.clock.resolution_s()
-        return self.now() + dt_s, self.wall() + dt_s / self.min_rate + 1.0
+        return self._now() + dt_s, self.wall() + dt_s / self.min_rate + 1.0
 
     def wait(self, dt_s: float) -> List[Frame]:
         """Let ``dt_s`` of the link's time pass; return every frame received meanwhile."""
