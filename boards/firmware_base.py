@@ -54,6 +54,7 @@ from bus import protocol as proto
 from bus import telemetry as tlm
 from boards.peripherals import CanController, Timer, Uart
 from boards.services import Application, CanopenDevice, ObjectRefused
+from boards.services.pdo import PdoGate
 from bus.eds.objects import EMCY_OF_FAULT
 from bus.errors import MalformedFrame
 from bus.scheduler import PRIO_BACKGROUND, Scheduler
@@ -240,6 +241,8 @@ class Board(Firmware):
         self._firmware_ids: set = set()
         self._stop_all_id = proto.stop_all_cob_id()
         self._tpdo_ids = frozenset(self.device.tpdo_ids)
+        #: the device's PDO gate, called natively on every PDO sent and received
+        self._pdo: PdoGate = self.device.pdo
         self.uart = Uart(serial_port) if serial_port is not None else None
         #: True when the firmware samples telemetry (a port is wired)
         self.telemetry_enabled = self.uart is not None
@@ -346,7 +349,8 @@ class Board(Firmware):
         """Receive handler for a standard data frame (called directly by the CAN controller on
         the ``schmidt-sim`` bus, which carries nothing else)."""
         try:
-            consumed = self.device.receive(cob, data)   # NMT, SDO, a heartbeat in 0x1016
+            # NMT, SDO, a heartbeat in 0x1016: only those go to the (interpreted) canopen services
+            consumed = cob in self.device.service_ids and self.device.receive(cob, data)
             if proto.FC_HEARTBEAT < cob <= proto.FC_HEARTBEAT + 0x7F:
                 # a heartbeat the firmware watches too (the axis's host watchdog, 0x710) reaches
                 # it even when 0x1016 consumes the same heartbeat; in every NMT state
@@ -355,7 +359,7 @@ class Board(Firmware):
                 return
             if consumed:
                 return
-            if not self.device.accept_rpdo(cob):
+            if not self._pdo.accept_rpdo():
                 return                                  # process data outside OPERATIONAL
             if cob == self._stop_all_id:
                 b = proto.decode_stop_all(data)
@@ -392,7 +396,7 @@ class Board(Firmware):
         """Transmit now (used from the background loop and the receive handler). A TPDO of this
         node goes through the CANopen PDO gate: dropped (counted) unless NMT OPERATIONAL."""
         if arbitration_id in self._tpdo_ids:
-            self.device.transmit_pdo(arbitration_id, data)
+            self._pdo.transmit_pdo(arbitration_id, data)
         else:
             self.can.send(arbitration_id, data)
 

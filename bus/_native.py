@@ -39,6 +39,7 @@ NATIVE_MODULES = (
     "bus.hid_reports",
     "boards.peripherals",
     "boards.services.application",
+    "boards.services.pdo",
     "boards.firmware_base",
     "boards.usb_gateway",
     "boards.tachometer",
@@ -60,6 +61,7 @@ NATIVE_MODULES = (
     "bus.protocol",
     "boards.usb_hid",
     "host.ports",
+    "plant.axis",
 )
 
 

@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import math
 import random
-from typing import Any
+from typing import Any, Final
 
 from bus.jit_entry import entry_point  # a leaf of bus (standard library only), as bus.units
 from bus.units import ARCSEC_PER_RAD  # a constants leaf of bus
@@ -54,11 +54,11 @@ from plant.params import AxisParameters
 
 __all__ = ["AxisPlant", "ARCSEC_PER_RAD"]
 
-_TWO_PI = 2.0 * math.pi
+_TWO_PI: Final = 2.0 * math.pi
 
 
 def _build_effects(params: AxisParameters, extra) -> list:
-    effects = []
+    effects: list = []
     if params.effects:
         from plant.effects import build_effect
 

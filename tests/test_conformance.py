@@ -60,13 +60,18 @@ def test_conform_fails_an_absent_node(tmp_path):
 
 def test_conform_catches_a_stopped_node_that_still_sends_pdos(tmp_path, monkeypatch):
     """A firmware defect — PDOs leave the node in every NMT state — fails the NMT stop check."""
-    from boards.services.device import CanopenDevice
+    from boards.services import device as D
+    from boards.services.pdo import PdoGate
 
-    def leaky(self, cob_id, data):
-        self._send(cob_id, data)               # no NMT-state gate
-        return True
+    class LeakyGate(PdoGate):
+        """A firmware defect: the PDO gate passes in every NMT state (while powered)."""
 
-    monkeypatch.setattr(CanopenDevice, "transmit_pdo", leaky)
+        def transmit_pdo(self, cob_id, data):
+            if self.device.powered:
+                self.transmit(cob_id, bytes(data))
+            return True
+
+    monkeypatch.setattr(D, "PdoGate", LeakyGate)   # the devices built next use it
     out = tmp_path / "conf"
     assert main(["conform", "--nodes", "3", "-k", "nmt_stop", "--out", str(out)]) == 1
     doc = json.loads((out / "conformance.json").read_text())

@@ -37,6 +37,7 @@ from boards.services.application import (ABORT_NO_DATA, ABORT_PARAMETER_INCOMPAT
 from boards.services.emcy import EmcyService
 from boards.services.heartbeat import HeartbeatConsumer, HeartbeatProducer
 from boards.services.network import SimNetwork
+from boards.services.pdo import NMT_OPERATIONAL, PdoGate
 from boards.services.sdo import SimSdoServer
 from bus.eds import load_od
 from bus.eds.objects import (KINDS, NMT_CMD_CODE, NMT_COB_ID, heartbeat_cob_id, heartbeat_node,
@@ -50,7 +51,8 @@ __all__ = ["CanopenDevice", "SimLocalNode", "SimNmtSlave", "NMT_CS", "STATE_CODE
 NMT_CS = frozenset(NMT_CMD_CODE.values())
 #: NMT state names (canopen's) → heartbeat state byte.
 STATE_CODE = {name: code for code, name in NMT_STATES.items()}
-_INITIALISING, _STOPPED, _OPERATIONAL, _PRE_OPERATIONAL = 0, 4, 5, 127
+_INITIALISING, _STOPPED, _PRE_OPERATIONAL = 0, 4, 127
+_OPERATIONAL = NMT_OPERATIONAL
 
 
 class SimNmtSlave(NmtSlave):
@@ -147,15 +149,14 @@ class CanopenDevice:
         self._rpdo_ids: Set[int] = {p.cob_id_for(self.node_id) for p in self.kind.rpdos}
         self._consumed: Set[int] = set()
         #: COB-IDs :meth:`receive` hands to the canopen services (NMT, SDO request, the consumed
-        #: heartbeats); every other frame (the PDOs) skips the canopen dispatch
-        self._service_ids: frozenset = frozenset({NMT_COB_ID, self.node.sdo.rx_cobid})
-        self._nmt_slave = self.node.nmt
+        #: heartbeats); every other frame (the PDOs) skips the canopen dispatch. Replaced (never
+        #: mutated) when the consumed heartbeats change: a receive interrupt may test it first.
+        self.service_ids: frozenset = frozenset({NMT_COB_ID, self.node.sdo.rx_cobid})
         self.powered = False
         self._booted_in_reset = False
         self.boots = 0
-        self.pdos_sent = 0
-        self.pdos_suppressed = 0
-        self.rpdos_ignored = 0
+        #: the PDO gate (:mod:`boards.services.pdo`): reads ``powered`` and the NMT state
+        self.pdo = PdoGate(self, self.node.nmt, transmit, self._tpdo_ids, name=self.name)
 
     # ------------------------------------------------------------------ state
     @property
@@ -169,7 +170,22 @@ class CanopenDevice:
 
     @property
     def operational(self) -> bool:
-        return self.powered and self.nmt._state == _OPERATIONAL
+        return self.pdo.is_open()
+
+    @property
+    def pdos_sent(self) -> int:
+        """TPDOs sent (the gate's count)."""
+        return self.pdo.pdos_sent
+
+    @property
+    def pdos_suppressed(self) -> int:
+        """TPDOs dropped outside OPERATIONAL (the gate's count)."""
+        return self.pdo.pdos_suppressed
+
+    @property
+    def rpdos_ignored(self) -> int:
+        """RPDOs received outside OPERATIONAL (the gate's count)."""
+        return self.pdo.rpdos_ignored
 
     @property
     def accepted_ids(self) -> Set[int]:
@@ -244,35 +260,26 @@ class CanopenDevice:
         bus.errors.MalformedFrame
             For a service frame that does not decode (the board counts it).
         """
-        if not self.powered or can_id not in self._service_ids:
+        if not self.powered or can_id not in self.service_ids:
             return False
         self.network.notify(can_id, bytes(data), self.scheduler.now_us * 1e-6)
         return True
 
     def accept_rpdo(self, can_id: int) -> bool:
-        """True if a received PDO on ``can_id`` may be acted on now (NMT OPERATIONAL)."""
-        if self.powered and self._nmt_slave._state == _OPERATIONAL:      # self.operational
-            return True
-        self.rpdos_ignored += 1
-        return False
+        """True if a received PDO on ``can_id`` may be acted on now (NMT OPERATIONAL; the
+        PDO gate, :meth:`boards.services.pdo.PdoGate.accept_rpdo`)."""
+        return self.pdo.accept_rpdo()
 
     def transmit_pdo(self, cob_id: int, data: bytes) -> bool:
-        """Send a TPDO if NMT OPERATIONAL; otherwise drop it (counted). Returns True if sent.
+        """Send a TPDO if NMT OPERATIONAL; otherwise drop it (counted). Returns True if sent
+        (the PDO gate, :meth:`boards.services.pdo.PdoGate.transmit_pdo`).
 
         Raises
         ------
         ValueError
             If ``cob_id`` is not one of this node's TPDO COB-IDs (an emulator bug).
         """
-        if cob_id not in self._tpdo_ids:
-            raise ValueError(f"{self.name}: 0x{cob_id:03X} is not a TPDO of this node "
-                             f"({sorted(hex(i) for i in self._tpdo_ids)})")
-        if not (self.powered and self._nmt_slave._state == _OPERATIONAL):   # self.operational
-            self.pdos_suppressed += 1
-            return False
-        self._transmit(cob_id, bytes(data))      # self._send(): powered is checked above
-        self.pdos_sent += 1
-        return True
+        return self.pdo.transmit_pdo(cob_id, data)
 
     def _send(self, can_id: int, data: bytes) -> None:
         if self.powered:
@@ -305,8 +312,8 @@ class CanopenDevice:
             self.network.unsubscribe(heartbeat_cob_id(n), self._on_heartbeat)
         times = self._consumer_times()
         self._consumed = set(times)
-        self._service_ids = frozenset({NMT_COB_ID, self.node.sdo.rx_cobid}
-                                      | {heartbeat_cob_id(n) for n in self._consumed})
+        self.service_ids = frozenset({NMT_COB_ID, self.node.sdo.rx_cobid}
+                                     | {heartbeat_cob_id(n) for n in self._consumed})
         for n in self._consumed:
             self.network.subscribe(heartbeat_cob_id(n), self._on_heartbeat)
         self.consumer.configure(times)
