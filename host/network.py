@@ -49,6 +49,7 @@ import dataclasses
 from collections.abc import Mapping
 
 import itertools
+from functools import partial
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -57,7 +58,7 @@ import can
 import bus as _bus_pkg  # noqa: F401  (registers the schmidt-sim python-can interface)
 from boards.axis_controller import PRESET_RATES_ARCSEC_S, AxisMode
 from boards.peripherals import Adc
-from host.ports import PlantPort
+from host.ports import AxisPlantPort, PlantPort
 from boards.registry import BOARD_NAMES, BOARDS, GATEWAY_KIND, BoardInstance, canopen_nodes, network_boards
 from boards.tuning import GAINS_SOURCE, design_axis_gains
 from boards.usb_hid import PRODUCT_ID, VENDOR_ID
@@ -327,11 +328,11 @@ class _Build:
 #: the callable handed to the firmware. A new board kind that needs a plant quantity no board has
 #: yet adds one factory here.
 PORTS: dict[str, Callable[[_Build, BoardInstance], Callable]] = {
-    "read_qei_counts": lambda b, i: PlantPort(b.plants[i.axis], b.scheduler, b.plants[i.axis].qei_counts),
-    "on_duties": lambda b, i: PlantPort(b.plants[i.axis], b.scheduler, b.plants[i.axis].set_duties),
-    "shunt_a_v": lambda b, i: PlantPort(b.plants[i.axis], b.scheduler, b.plants[i.axis].shunt_voltage_v, "a"),
-    "shunt_b_v": lambda b, i: PlantPort(b.plants[i.axis], b.scheduler, b.plants[i.axis].shunt_voltage_v, "b"),
-    "read_position_word": lambda b, i: PlantPort(b.plants[i.axis], b.scheduler, b.plants[i.axis].absolute_counts),
+    "read_qei_counts": lambda b, i: AxisPlantPort(b.plants[i.axis], b.scheduler, b.plants[i.axis].qei_counts),
+    "on_duties": lambda b, i: AxisPlantPort(b.plants[i.axis], b.scheduler, b.plants[i.axis].set_duties),
+    "shunt_a_v": lambda b, i: AxisPlantPort(b.plants[i.axis], b.scheduler, partial(b.plants[i.axis].shunt_voltage_v, "a")),
+    "shunt_b_v": lambda b, i: AxisPlantPort(b.plants[i.axis], b.scheduler, partial(b.plants[i.axis].shunt_voltage_v, "b")),
+    "read_position_word": lambda b, i: AxisPlantPort(b.plants[i.axis], b.scheduler, b.plants[i.axis].absolute_counts),
     "on_step": lambda b, i: PlantPort(b.focus_plant, b.scheduler, b.focus_plant.step),
     "on_power": lambda b, i: PlantPort(b.focus_plant, b.scheduler, b.focus_plant.set_power),
     # the kinematic focus plant changes only on step()/set_power(), so its read-only sensors
@@ -348,8 +349,8 @@ PORTS: dict[str, Callable[[_Build, BoardInstance], Callable]] = {
     "read_wind_v": lambda b, i: PlantPort(b.weather, b.scheduler, b.weather.wind_v),
     "read_rain": lambda b, i: PlantPort(b.weather, b.scheduler, lambda w=b.weather: w.rain),
     # issue 12: the CP-850 on motor a/b of the axis, the auxiliary encoder's 17-bit word
-    "read_motor_counts": lambda b, i: PlantPort(b.plants[i.axis], b.scheduler, b.plants[i.axis].tach_counts, i.motor),
-    "read_aux_word": lambda b, i: PlantPort(b.plants[i.axis], b.scheduler, b.plants[i.axis].aux_encoder_word),
+    "read_motor_counts": lambda b, i: AxisPlantPort(b.plants[i.axis], b.scheduler, partial(b.plants[i.axis].tach_counts, i.motor)),
+    "read_aux_word": lambda b, i: AxisPlantPort(b.plants[i.axis], b.scheduler, b.plants[i.axis].aux_encoder_word),
 }
 
 

@@ -12,8 +12,9 @@ from __future__ import annotations
 from typing import Any
 
 from bus.scheduler import Scheduler
+from plant.axis import AxisPlant
 
-__all__ = ["PlantPort"]
+__all__ = ["PlantPort", "AxisPlantPort"]
 
 
 class PlantPort:
@@ -47,4 +48,34 @@ class PlantPort:
             self.advance(now_us)
         if self.fixed:
             return self.fn(*self.fixed, *args)
+        return self.fn(*args)
+
+
+class AxisPlantPort:
+    """``fn(*args)`` called after ``plant.advance_to(scheduler.now_us)``, for an axis plant.
+
+    :class:`PlantPort` for :class:`plant.axis.AxisPlant`, the plant of most ports (encoders,
+    shunts, tachometers, auxiliary encoders, PWM). The plant is compiled too (``plant.axis``), so
+    reading its time and advancing it are native calls here, not attribute lookups.
+
+    Parameters
+    ----------
+    plant : plant.axis.AxisPlant
+    scheduler : bus.scheduler.Scheduler
+        The clock whose ``now_us`` the plant is advanced to.
+    fn : callable
+        The plant method (sensor read or actuator write), with any fixed leading argument already
+        bound (``functools.partial(plant.shunt_voltage_v, "a")``).
+    """
+
+    def __init__(self, plant: AxisPlant, scheduler: Scheduler, fn: Any) -> None:
+        self.plant = plant
+        self.scheduler = scheduler
+        self.fn = fn
+
+    def __call__(self, *args: Any) -> Any:
+        now_us = self.scheduler.now_us
+        plant = self.plant
+        if plant.now_us != now_us:          # a time in the past still reaches advance_to (raises)
+            plant.advance_to(now_us)
         return self.fn(*args)
