@@ -31,8 +31,7 @@ of a mirrored mounting (the count follows the motor angle of the plant).
 from __future__ import annotations
 
 import math
-from collections import deque
-from typing import Callable, ClassVar, Deque, Final, Optional, Tuple
+from typing import Callable, ClassVar, Final, List, Optional, Tuple
 
 import can
 
@@ -50,21 +49,25 @@ WINDOWS_TICKS: Final = (4, 10, 20, 50, 100, proto.TACH_MAX_WINDOW_TICKS)
 MIN_COUNTS: Final = 16
 
 
-def speed_window(ring: Deque[int], windows_ticks: Tuple[int, ...], min_counts: int) -> Tuple[int, int]:
+def speed_window(ring: List[int], head: int, filled: int, windows_ticks: Tuple[int, ...],
+                 min_counts: int) -> Tuple[int, int]:
     """The firmware's adaptive speed window: ``(w, d)``, the shortest window ``w`` of
     ``windows_ticks`` (ticks, shortest first) over which the count changed by at least
     ``min_counts``, and that change ``d`` [counts]; the longest window the ring holds otherwise
-    (``w = 0`` before the second tick). ``ring``: the extended counts of the last ticks, newest last.
-    Shared by the tachometers and the axis velocity readers (boards/velocity_reader.py)."""
-    c = ring[-1]
-    n = len(ring) - 1
+    (``w = 0`` before the second tick). ``ring``: a circular buffer of the extended counts of
+    the last ticks (a list, as the firmware's RAM array), ``head`` the index of the newest,
+    ``filled`` how many entries hold counts (1..len(ring)). Shared by the tachometers and the
+    axis velocity readers (boards/velocity_reader.py)."""
+    size = len(ring)
+    c = ring[head]
+    n = filled - 1
     w, d = n, 0
     for w in windows_ticks:
         if w > n:
             w = n
-            d = c - ring[0] if n else 0
+            d = c - ring[(head - n) % size] if n else 0
             break
-        d = c - ring[-1 - w]
+        d = c - ring[(head - w) % size]
         if abs(d) >= min_counts:
             break
     return w, d
@@ -135,7 +138,10 @@ class QeiSpeedBoard(Board):
             self._init_speed_state()
 
     def _init_speed_state(self) -> None:
-        self._ring: deque = deque(maxlen=self.MAX_WINDOW_TICKS + 1)
+        # the last MAX_WINDOW_TICKS + 1 extended counts, a circular buffer (newest at _ring_head)
+        self._ring: List[int] = [0] * (self.MAX_WINDOW_TICKS + 1)
+        self._ring_head = -1
+        self._ring_filled = 0
         self.reading = 0            # last speed estimate, in the frame's integer unit
         self.window_ticks = self.MAX_WINDOW_TICKS
         self.frames_queued = 0
@@ -146,8 +152,12 @@ class QeiSpeedBoard(Board):
         self.qei.read_delta()
         c = self.qei.extended
         ring = self._ring
-        ring.append(c)
-        w, d = speed_window(ring, self.WINDOWS_TICKS, self.MIN_COUNTS)
+        head = (self._ring_head + 1) % len(ring)
+        ring[head] = c
+        self._ring_head = head
+        if self._ring_filled < len(ring):
+            self._ring_filled += 1
+        w, d = speed_window(ring, head, self._ring_filled, self.WINDOWS_TICKS, self.MIN_COUNTS)
         if w == 0:
             self.reading, self.window_ticks = 0, 1
         else:

@@ -98,6 +98,57 @@ def test_tachometer_speed_within_one_count_of_the_true_speed(omega):
     assert checked == 50
 
 
+@pytest.mark.parametrize("seed", range(10))
+def test_tachometer_window_choice_matches_the_documented_rule_on_random_counts(seed):
+    """Random count sequences (rest, crawls, slews, reversals; 3 s): every TACH_STATUS (decoded
+    with cantools) carries the window and speed the module doc's rule gives, computed here from
+    the whole history of the counts the encoder read (a plain list, newest last): the shortest
+    of WINDOWS_TICKS holding at least MIN_COUNTS counts, else the longest the history holds
+    (at most TACH_MAX_WINDOW_TICKS); speed = counts over that window."""
+    from boards.tachometer import WINDOWS_TICKS
+
+    rng = random.Random(seed)
+    per_tick, rate, c = [], 0.0, 0
+    for _ in range(620):
+        if rng.random() < 0.05:
+            rate = rng.choice([0.0, 0.0, 0.2, -0.3, 3.0, -7.0, 40.0, -200.0, 1500.0])
+        c += int(round(rate + rng.uniform(-0.5, 0.5))) if rate else 0
+        per_tick.append(c)
+    s = Scheduler()
+    bus = FakeBus()
+    read = []
+
+    def counts():
+        read.append(per_tick[s.now_us // P.TACH_STATUS_PERIOD_US])
+        return read[-1]
+
+    t = Tachometer(s, bus, 6, read_motor_counts=counts, counts_per_rev=CPR)
+    t.start()
+    nmt_start(t)
+    s.run_until(600 * P.TACH_STATUS_PERIOD_US)
+    frames = bus.frames(0x186)
+    ticks = read[1:]                 # read[0]: the QEI's power-on value, before the first tick
+    assert len(frames) >= 590 and len(ticks) >= len(frames)
+    for k, m in enumerate(frames):
+        hist = ticks[:k + 1][-(P.TACH_MAX_WINDOW_TICKS + 1):]
+        n = len(hist) - 1
+        want_w, want_d = n, 0
+        for w in WINDOWS_TICKS:
+            if w > n:
+                want_w, want_d = n, (hist[-1] - hist[0]) if n else 0
+                break
+            want_w, want_d = w, hist[-1] - hist[-1 - w]
+            if abs(want_d) >= MIN_COUNTS:
+                break
+        sig = _dbc_decode(0x186, m.data)
+        if want_w == 0:
+            assert (sig["window_ticks"], sig["motor_speed"]) == (1, 0), (seed, k)
+            continue
+        speed = want_d * 2 * math.pi / CPR / (want_w * P.TACH_STATUS_PERIOD_US * 1e-6)
+        assert sig["window_ticks"] == want_w, (seed, k, sig["window_ticks"], want_w)
+        assert sig["motor_speed"] == pytest.approx(speed, abs=1e-6), (seed, k)
+
+
 def test_tachometer_counts_follow_the_encoder_and_slow_speeds_use_the_long_window():
     """The counts field is the encoder count since power-on (low 16 bits, wrapping); at the
     motor speed of 15″/s tracking (15 × 360.49 ″/s) the window grows to 1 s."""
