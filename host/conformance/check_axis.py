@@ -68,7 +68,7 @@ class Axis:
 
     # -------------------------------------------------------------- observations
     def status(self, after: float):
-        fr = [f for f in self.link.frames if f.cob_id == self.status_cob and f.t >= after]
+        fr = [f for f in self.link.frames_of(self.status_cob) if f.t >= after]
         return None if not fr else self.status_msg.decode(fr[-1].data, decode_choices=False)
 
     def mode_after(self, t: float) -> int | None:
@@ -79,7 +79,7 @@ class Axis:
     def positions(self, t0: float, t1: float):
         msg = self.conf.docs.message(self.pos_cob)
         return [(f.t, int(msg.decode(f.data, decode_choices=False)["pos_counts"]))
-                for f in self.link.frames if f.cob_id == self.pos_cob and t0 <= f.t <= t1]
+                for f in self.link.frames_of(self.pos_cob) if t0 <= f.t <= t1]
 
     def angle_arcsec(self, counts: int) -> float:
         half = self.counts_per_rev // 2
@@ -102,11 +102,11 @@ class Axis:
 
     def refusals(self, t0: float):
         code = self.conf.docs.emcy("COMMAND_REFUSED")
-        return [e for e in emcy_frames(self.link.frames, self.node.node_id) if e[0] >= t0 and e[1] == code]
+        return [e for e in emcy_frames(self.link.frames_of(0x80 + self.node.node_id), self.node.node_id) if e[0] >= t0 and e[1] == code]
 
     def malformed(self, t0: float):
         code = self.conf.docs.emcy("MALFORMED_FRAME")
-        return [e for e in emcy_frames(self.link.frames, self.node.node_id) if e[0] >= t0 and e[1] == code]
+        return [e for e in emcy_frames(self.link.frames_of(0x80 + self.node.node_id), self.node.node_id) if e[0] >= t0 and e[1] == code]
 
     def stop(self) -> None:
         self.send("STOP", 1, 0)
@@ -299,7 +299,7 @@ def test_axis_soft_limit(axis_node, conf, check):
             int(ax.status_msg.decode(f.data, decode_choices=False)["mode"]) == ax.modes["LIMIT_STOP"], 5.0)
         check("limit.stop_mode", axis_node, f"mode {ax.modes['LIMIT_STOP']} LIMIT_STOP when moving toward the limit",
               "reached" if stopped else "not within 5 s", stopped is not None)
-        em = [e for e in emcy_frames(ax.link.frames, axis_node.node_id) if e[0] >= t0 and e[1] == code]
+        em = [e for e in emcy_frames(ax.link.frames_of(0x80 + axis_node.node_id), axis_node.node_id) if e[0] >= t0 and e[1] == code]
         check("limit.emcy", axis_node, f"EMCY 0x{code:04X} b3 {fault}, detail = LIMIT flags (high bit set)",
               [f"b3 {e[3]} detail 0x{e[4]:X}" for e in em] or "none", any(e[3] == fault and e[4] & 0x2 for e in em))
         ax.link.wait(2.5)
@@ -320,7 +320,7 @@ def test_axis_soft_limit(axis_node, conf, check):
               mode == ax.modes["STOP"] if must_clear else mode in (ax.modes["STOP"], ax.modes["LIMIT_STOP"]))
         # from the SET (t0), not from t1: the flag may clear (and the error reset go out) while the
         # host was still reading the frames before the stop; it cannot precede the stop itself
-        em = [e for e in emcy_frames(ax.link.frames, axis_node.node_id) if e[0] >= t0 and e[1] == 0]
+        em = [e for e in emcy_frames(ax.link.frames_of(0x80 + axis_node.node_id), axis_node.node_id) if e[0] >= t0 and e[1] == 0]
         reset = any(e[3] == fault and e[4] == code for e in em)
         check("limit.error_reset", axis_node,
               f"EMCY 0x0000 b3 {fault} detail 0x{code:04X} once the limit clears (mode STOP), none while it stays",

@@ -30,7 +30,7 @@ def test_heartbeat_lost_emcy_and_error_reset(node, conf, check):
         t0 = link.now()
         link.wait(2.5)
         t_quiet = link.now()
-        em = [e for e in emcy_frames(link.frames, node.node_id) if e[0] >= t0 and e[1] == code]
+        em = [e for e in emcy_frames(link.frames_of(0x80 + node.node_id), node.node_id) if e[0] >= t0 and e[1] == code]
         # The statement holds while the host beats within the consumer time. A host process that
         # was itself descheduled past it (seen in the QEMU guest's emulated CPUs, session 8) makes
         # the EMCY the right reaction, so the host's own longest gap between beats (on the link's
@@ -54,7 +54,7 @@ def test_heartbeat_lost_emcy_and_error_reset(node, conf, check):
         # reaction time, plus on the devices' clock its resolution (the last beat's stamp may lag)
         window = time_ms / 1000 + conf.docs.tolerances.nmt_reaction_s + conf.clock_resolution_s()
         link.wait(window + (t1 - last_beat) + 0.5)
-        em = [e for e in emcy_frames(link.frames, node.node_id) if e[0] >= t1]
+        em = [e for e in emcy_frames(link.frames_of(0x80 + node.node_id), node.node_id) if e[0] >= t1]
         lost = [e for e in em if e[1] == code]
         ok = [e for e in lost if e[3] == fault and e[4] == HOST_NODE and e[2] != 0]
         check("emcy.heartbeat_lost", node,
@@ -80,7 +80,7 @@ def test_heartbeat_lost_emcy_and_error_reset(node, conf, check):
         # beat period) and clears 1 s later (docs/faults.md "Repeats and clearing"); 0x1001 is 0
         # only once every error has
         link.wait(2.5)
-        em = [e for e in emcy_frames(link.frames, node.node_id) if e[0] >= t2]
+        em = [e for e in emcy_frames(link.frames_of(0x80 + node.node_id), node.node_id) if e[0] >= t2]
         check("emcy.error_reset", node, f"EMCY 0x0000 (error reset), b3 {fault}, detail 0x{code:04X} once the host beats again",
               [f"0x{e[1]:04X} reg 0x{e[2]:02X} b3 {e[3]} detail 0x{e[4]:04X}" for e in em] or "none",
               any(e[1] == 0 and e[3] == fault and e[4] == code for e in em))

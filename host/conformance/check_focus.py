@@ -33,7 +33,7 @@ class Focus:
         """The last FOCUS_STATUS after waiting ``wait_s`` plus two status periods."""
         t = self.link.now()
         self.link.wait(wait_s + 2 * self.period_s)
-        fr = [f for f in self.link.frames if f.cob_id == self.status_cob and f.t > t + wait_s]
+        fr = [f for f in self.link.frames_of(self.status_cob) if f.t > t + wait_s]
         return self.status_msg.decode(fr[-1].data, decode_choices=False) if fr else {}
 
     def travel(self) -> int:
@@ -63,7 +63,7 @@ def test_focus_moves_and_refuses(focus_node, conf, check):
     for cmd, value in (("MOVE_TO", travel + 1), ("MOVE_TO", -travel - 1), ("STEP", travel + 1)):
         t = fo.send(cmd, value)
         st = fo.status_after(0.5)
-        ref = [e for e in emcy_frames(fo.link.frames, focus_node.node_id) if e[0] >= t and e[1] == code]
+        ref = [e for e in emcy_frames(fo.link.frames_of(0x80 + focus_node.node_id), focus_node.node_id) if e[0] >= t and e[1] == code]
         check(f"focus.refused[{cmd} {value}]", focus_node,
               f"travel ±{travel} (0x2200 Travel): EMCY COMMAND_REFUSED detail low byte {fo.cmds[cmd]}, position stays {pos}",
               f"{[hex(e[4]) for e in ref] or 'no EMCY'}; pos {st.get('pos_halfsteps')}",

@@ -55,7 +55,7 @@ def test_malformed_frames_counted(node, conf, check):
         after = node.remote.sdo[0x2F00][1].raw
         check(f"malformed.count[{label}]", node, "0x2F00:1 + 1", f"{before} -> {after}",
               after == min(before + 1, 0xFFFF))
-        em = [e for e in emcy_frames(conf.link.frames, node.node_id) if e[0] >= t0 and e[1] == code]
+        em = [e for e in emcy_frames(conf.link.frames_of(0x80 + node.node_id), node.node_id) if e[0] >= t0 and e[1] == code]
         check(f"malformed.emcy[{label}]", node, f"EMCY 0x{code:04X} detail 0x{cob:03X}",
               [f"0x{e[1]:04X} detail 0x{e[4]:03X}" for e in em] or "none",
               any(e[4] == cob for e in em))
