@@ -210,6 +210,9 @@ class Qei:
 
     def __init__(self, read_counts: Callable[[], int]) -> None:
         self.read_counts = read_counts
+        #: MODULUS as an instance attribute: the compiled ISR reads it natively (a class
+        #: attribute read through ``self`` is a generic lookup)
+        self._modulus: int = self.MODULUS
         self.extended = 0
         self._last_poscnt = 0
         self._offset = 0
@@ -217,11 +220,11 @@ class Qei:
     @property
     def poscnt(self) -> int:
         """The 16-bit POSCNT register, 0..65535."""
-        return (int(self.read_counts()) - self._offset) % self.MODULUS
+        return (int(self.read_counts()) - self._offset) % self._modulus
 
     def read_delta(self) -> int:
         """Read POSCNT, update the 32-bit extension and return the signed count change."""
-        m = self.MODULUS
+        m = self._modulus
         p = (int(self.read_counts()) - self._offset) % m          # POSCNT (self.poscnt)
         delta = (p - self._last_poscnt) % m
         if delta >= m >> 1:

@@ -142,6 +142,9 @@ class QeiSpeedBoard(Board):
         self._ring: List[int] = [0] * (self.MAX_WINDOW_TICKS + 1)
         self._ring_head = -1
         self._ring_filled = 0
+        # the class's rule as instance attributes, read natively by the compiled ISR
+        self._windows_ticks: Tuple[int, ...] = tuple(self.WINDOWS_TICKS)
+        self._min_counts: int = self.MIN_COUNTS
         self.reading = 0            # last speed estimate, in the frame's integer unit
         self.window_ticks = self.MAX_WINDOW_TICKS
         self.frames_queued = 0
@@ -157,7 +160,7 @@ class QeiSpeedBoard(Board):
         self._ring_head = head
         if self._ring_filled < len(ring):
             self._ring_filled += 1
-        w, d = speed_window(ring, head, self._ring_filled, self.WINDOWS_TICKS, self.MIN_COUNTS)
+        w, d = speed_window(ring, head, self._ring_filled, self._windows_ticks, self._min_counts)
         if w == 0:
             self.reading, self.window_ticks = 0, 1
         else:

@@ -392,12 +392,13 @@ class HostClient(HostTiming):
         axis = _AXIS_OF_NODE[node]
         st = self.axes[axis]
         raw = f.qei_counts
+        wrap = self.QEI_WRAP           # once: a class attribute through ``self`` is a generic lookup
         if st._raw24 is None:
-            st.counts = raw if raw < self.QEI_WRAP // 2 else raw - self.QEI_WRAP
+            st.counts = raw if raw < wrap // 2 else raw - wrap
         else:
-            d = (raw - st._raw24) % self.QEI_WRAP
-            if d >= self.QEI_WRAP // 2:
-                d -= self.QEI_WRAP
+            d = (raw - st._raw24) % wrap
+            if d >= wrap // 2:
+                d -= wrap
             st.counts += d
         st._raw24 = raw
         st.u = q15_to_duty(f.u_q15)

@@ -46,9 +46,10 @@ class PlantPort:
         now_us = self.scheduler.now_us
         if not self.lazy or self.plant.now_us != now_us:
             self.advance(now_us)
+        fn = self.fn           # a local: ``self.fn(...)`` compiles to a generic attribute lookup
         if self.fixed:
-            return self.fn(*self.fixed, *args)
-        return self.fn(*args)
+            return fn(*self.fixed, *args)
+        return fn(*args)
 
 
 class AxisPlantPort:
@@ -78,4 +79,5 @@ class AxisPlantPort:
         plant = self.plant
         if plant.now_us != now_us:          # a time in the past still reaches advance_to (raises)
             plant.advance_to(now_us)
-        return self.fn(*args)
+        fn = self.fn           # a local: ``self.fn(...)`` compiles to a generic attribute lookup
+        return fn(*args)
