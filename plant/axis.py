@@ -215,8 +215,11 @@ class AxisPlant:
 
     # ------------------------------------------------------------------ integration
 
-    #: The torque one gear train applies to the axis: :func:`plant.kernel.mesh_torque_nm`.
-    mesh_torque_nm = staticmethod(kernel.mesh_torque_nm)
+    @staticmethod
+    def mesh_torque_nm(d_rad: float, rel_rate_rad_s: float, kt: float, ct: float, hb: float) -> float:
+        """The torque one gear train applies to the axis [N·m]: :func:`plant.kernel.mesh_torque_nm`
+        (a method, not a class attribute holding the function: the class is compiled by mypyc)."""
+        return float(kernel.mesh_torque_nm(d_rad, rel_rate_rad_s, kt, ct, hb))
 
     def state_tuple(self) -> tuple:
         """The kernel state ``X`` (see :mod:`plant.kernel`): the 9 states plus the step memory."""
