@@ -89,3 +89,20 @@ def nmt_start(*boards):
     (commands, LIMIT, STOP_ALL) and send their periodic frames only when OPERATIONAL."""
     for b in boards:
         b._on_rx(can.Message(arbitration_id=0x000, data=bytes((0x01, 0x00)), is_extended_id=False))
+
+
+def install_leaky_pdo_gate(monkeypatch) -> None:
+    """Build every board created next with a broken PDO gate: a firmware defect whose TPDOs leave
+    the node in every NMT state (while powered). An interpreted subclass of the compiled
+    ``PdoGate``, installed where ``CanopenDevice`` builds its gate (replacing a method of
+    ``CanopenDevice`` would not reach the compiled firmware, which calls the gate directly)."""
+    from boards.services import device as D
+    from boards.services.pdo import PdoGate
+
+    class LeakyGate(PdoGate):
+        def transmit_pdo(self, cob_id, data):
+            if self.device.powered:
+                self.transmit(cob_id, bytes(data))
+            return True
+
+    monkeypatch.setattr(D, "PdoGate", LeakyGate)

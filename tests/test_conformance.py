@@ -60,18 +60,9 @@ def test_conform_fails_an_absent_node(tmp_path):
 
 def test_conform_catches_a_stopped_node_that_still_sends_pdos(tmp_path, monkeypatch):
     """A firmware defect — PDOs leave the node in every NMT state — fails the NMT stop check."""
-    from boards.services import device as D
-    from boards.services.pdo import PdoGate
+    from boards_fakes import install_leaky_pdo_gate
 
-    class LeakyGate(PdoGate):
-        """A firmware defect: the PDO gate passes in every NMT state (while powered)."""
-
-        def transmit_pdo(self, cob_id, data):
-            if self.device.powered:
-                self.transmit(cob_id, bytes(data))
-            return True
-
-    monkeypatch.setattr(D, "PdoGate", LeakyGate)   # the devices built next use it
+    install_leaky_pdo_gate(monkeypatch)
     out = tmp_path / "conf"
     assert main(["conform", "--nodes", "3", "-k", "nmt_stop", "--out", str(out)]) == 1
     doc = json.loads((out / "conformance.json").read_text())

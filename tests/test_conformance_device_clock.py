@@ -88,18 +88,9 @@ def test_wall_clock_host_fails_against_the_slow_emulator(tmp_path):
 
 def test_stopped_node_sending_pdos_fails_on_the_device_clock(tmp_path, monkeypatch):
     """Silence window: PDOs leave the node in every NMT state → nmt.stop.no_pdo fails, and only it."""
-    from boards.services import device as D
-    from boards.services.pdo import PdoGate
+    from boards_fakes import install_leaky_pdo_gate
 
-    class LeakyGate(PdoGate):
-        """A firmware defect: the PDO gate passes in every NMT state (while powered)."""
-
-        def transmit_pdo(self, cob_id, data):
-            if self.device.powered:
-                self.transmit(cob_id, bytes(data))
-            return True
-
-    monkeypatch.setattr(D, "PdoGate", LeakyGate)   # the devices built next use it
+    install_leaky_pdo_gate(monkeypatch)
     code, doc = _conform(tmp_path, "--nodes", "3", "-k", "nmt_stop")
     assert code == 1 and _failed(doc) == {"nmt.stop.no_pdo"}
 
