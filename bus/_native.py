@@ -27,11 +27,13 @@ import sys
 __all__ = ["NATIVE_MODULES", "native_modules", "install_source_finder", "own_abc_cache", "stale_modules"]
 
 #: Dotted names of the modules compiled at install (on the per-frame path of every simulated
-#: second: measured with the per-event profile of docs/performance.md). Not compiled on purpose:
-#: ``bus.protocol`` (its public codecs validate any input type themselves and name the frame and
-#: field; compiled, an ``int`` annotation would refuse a float or a numpy integer with a bare
-#: ``TypeError`` first) and ``boards.services`` (the CANopen device: tests replace its methods to
-#: build broken boards, which compiled callers would not see).
+#: second: measured with the per-event profile of docs/performance.md). ``bus.protocol`` is
+#: compiled with its public codecs' arguments typed ``Any`` (``_Int``): they validate any input
+#: type themselves and name the frame and field, where an ``int`` annotation would refuse a float
+#: or a numpy integer with a bare ``TypeError`` first. Not compiled on purpose:
+#: ``boards.services.device`` and the other canopen services (tests replace their methods to
+#: build broken boards, which compiled callers would not see); only their PDO gate
+#: (``boards.services.pdo``) and the application glue are.
 NATIVE_MODULES = (
     "bus.scheduler",
     "bus.network",

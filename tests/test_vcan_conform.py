@@ -182,6 +182,7 @@ def test_conform_functional_checks_pass_against_serve_on_vcan0(served, tmp_path)
                                                                     for c in failed][:20],
         "timing_checks": len(timing), "clock": doc.get("clock"),
         "timing_outside_tolerance": [f"{c['node']} {c['id']}: {c['observed']}" for c in timing if not c["pass"]],
+        "reruns_host_lapsed": doc.get("reruns_host_lapsed", []),
         "conform_wall_s": round(conform_wall_s, 1)})
     assert not failed, f"{failed[:5]}\n{log}"
     assert conf.returncode == 0, log

@@ -35,7 +35,7 @@ HOST_BUSY_MAX_S = 0.5
 
 def open_emulator_link(scenario_path: Path | None = None, sdo_timeout_s: float = 0.02, *,
                        rate: float | None = None, seed: int = 1, device_clock=None,
-                       min_rate: float = 0.05) -> Link:
+                       min_rate: float = 0.05, host_stall: tuple[int, float] | None = None) -> Link:
     """Build the scenario's network in simulated time and return a link on its bus.
 
     The scenario's ``segments`` are not run (nothing commands the boards but the suite); its
@@ -48,6 +48,11 @@ def open_emulator_link(scenario_path: Path | None = None, sdo_timeout_s: float =
     (``seed``) so a run is repeatable. The link then waits as on a real bus: on
     ``device_clock`` (counted from the frames) if given, else on that wall clock; the suite
     never reads the emulator's clock.
+
+    ``host_stall = (cob_id, seconds)`` (test aid, with ``rate``): at the host's first stamp
+    (:meth:`Link.now`) after its first frame on ``cob_id``, the emulator runs ``seconds`` while
+    the host neither reads nor beats — a host process descheduled, as in the QEMU guest
+    (docs/conformance.md, "The host's own heartbeat").
 
     Raises
     ------
@@ -92,7 +97,14 @@ def open_emulator_link(scenario_path: Path | None = None, sdo_timeout_s: float =
     link.wall_kind = "virtual wall"
     # the host computes between its reads (the checks scan every frame received so far): at
     # some of its stamps the devices have run on and frames wait unread in its receive queue
+    stall = [host_stall]
+
     def host_busy() -> None:
+        if stall[0] is not None and any(f.cob_id == stall[0][0] for f in link.sent):
+            seconds = stall[0][1]
+            stall[0] = None
+            wall[0] += seconds
+            sched.run_until(sched.now_us + int(seconds * 1e6))
         if rng.random() < HOST_BUSY_PROBABILITY:
             advance_slowly(wall[0] + rng.uniform(0.0, HOST_BUSY_MAX_S))
 

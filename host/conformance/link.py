@@ -19,7 +19,14 @@ emulator behind ``serve``) run against the wall clock. Every wait also has a wal
 (docs/conformance.md, "Which clock").
 
 The conformance host produces its own CiA heartbeat (node 0x10, docs/protocol.md) every
-second while it waits, unless :attr:`Link.heartbeat_on` is False.
+second, unless :attr:`Link.heartbeat_on` is False: whenever one second has passed on the link's
+clock *or* on the wall clock since the last beat, checked at every frame it takes, every poll,
+:meth:`Link.now` and :meth:`Link.send`. The devices' clock keeps the beats one device second
+apart while the host reads as fast as frames arrive, even when an emulator catches up after a
+stall faster than real time; the wall clock keeps them while the host falls behind reading (its
+count of the devices' clock then lags) and the devices run at most at real time. A host process
+descheduled for seconds beats late on both; the suite re-runs a test the devices then failed
+for it (``plugin.pytest_pyfunc_call``; docs/conformance.md, "The host's own heartbeat").
 """
 
 from __future__ import annotations
@@ -206,15 +213,30 @@ class Link:
         self.frames: List[Frame] = []
         self._by_cob: Dict[int, List[Frame]] = {}
         self.sent: List[Frame] = []
+        self._sent_after: List[int] = []     # len(frames) when each frame of ``sent`` went out
         self.master = MasterNetwork(self, sdo_timeout_s)
-        self.heartbeat_on = True
+        self._heartbeat_on = True
+        #: how many times :attr:`heartbeat_on` went False (a check silencing the host on purpose)
+        self.silences = 0
         self.heartbeat_state = 0x05
         #: test aid (``open_emulator_link(rate=...)``): called by :meth:`now` before it reads; it may
         #: let the devices run on while the host computes (frames wait in its receive queue)
         self.host_busy: Optional[Callable[[], None]] = None
         self._wall0 = self.wall()
         self._next_beat = self._now()
+        self._next_beat_wall = self._wall0
         self._close = close
+
+    @property
+    def heartbeat_on(self) -> bool:
+        """Whether the host sends its heartbeat (0x710); a check sets it False to go silent."""
+        return self._heartbeat_on
+
+    @heartbeat_on.setter
+    def heartbeat_on(self, on: bool) -> None:
+        if self._heartbeat_on and not on:
+            self.silences += 1
+        self._heartbeat_on = bool(on)
 
     def now(self) -> float:
         """The link's time, s: the devices' clock (with a :class:`DeviceClock`) or ``wall()``,
@@ -229,6 +251,7 @@ class Link:
         if self.host_busy is not None:
             self.host_busy()
         self._drain()
+        self._beat()
         return self._now()
 
     def _now(self) -> float:
@@ -238,6 +261,7 @@ class Link:
         """Take every frame already received (no waiting, no advance of simulated time)."""
         while (m := self.bus.recv(0.0)) is not None:
             self._take(m)
+            self._beat()
 
     def frames_of(self, cob_id: int) -> List[Frame]:
         """The frames received on ``cob_id`` so far, in order (the list itself: do not modify).
@@ -262,15 +286,58 @@ class Link:
     def send(self, cob_id: int, data: bytes) -> None:
         """Send one standard (11-bit) data frame."""
         self._drain()                    # stamped as fresh as the frames received (see now())
+        self._beat()
         self._transmit(cob_id, data)
 
     def _transmit(self, cob_id: int, data: bytes) -> None:
         self.sent.append(Frame(self._now(), cob_id, bytes(data), self.wall()))
+        self._sent_after.append(len(self.frames))
         self.bus.send(can.Message(arbitration_id=cob_id, data=bytes(data), is_extended_id=False))
 
+    def arrival_s(self, sent: Frame) -> float:
+        """The link's time at which a frame this host sent reached the devices, s.
+
+        A frame's own stamp ``sent.t`` is the link's time when it went out. The heartbeat
+        (``_beat``) also goes out while the host is still taking a backlog of received frames;
+        its stamp is then the backlog's time, older than the devices' clock by as much as the
+        host lags, and a window measured from it would hold the host's lag against a device.
+        So the arrival is the link's time once it took the first frame received *after* the
+        send (its receiver wall time, the kernel's receive stamp on SocketCAN, later than the
+        send's), which the devices sent after the frame reached them; ``sent.t`` if none came yet.
+        Within the clock's resolution (:meth:`DeviceClock.resolution_s`, which every window
+        adds), an upper bound of the devices' time at the frame's arrival.
+
+        Parameters
+        ----------
+        sent : Frame
+            An element of :attr:`sent`.
+
+        Raises
+        ------
+        ValueError
+            ``sent`` was not sent on this link.
+        """
+        for i in range(len(self.sent) - 1, -1, -1):
+            if self.sent[i] is sent:
+                break
+        else:
+            raise ValueError("arrival_s: the frame was not sent on this link")
+        t = sent.t
+        for f in self.frames[self._sent_after[i]:]:
+            t = max(t, f.t)              # the clock's value after this frame (a stream's own
+            if f.wall > sent.wall:       # stamp may lag it by more than the resolution)
+                return t
+        return sent.t
+
     def _beat(self) -> None:
-        if self.heartbeat_on and self._now() >= self._next_beat:
+        """Send the host heartbeat if one second has passed on the link's clock or on the wall
+        clock since the last one (module docstring)."""
+        if not self._heartbeat_on:
+            return
+        wall = self.wall()
+        if self._now() >= self._next_beat or wall >= self._next_beat_wall:
             self._next_beat = self._now() + 1.0
+            self._next_beat_wall = wall + 1.0
             # not send(): its drain would take frames that the poll calling this does not return
             self._transmit(0x700 + HOST_NODE, bytes((self.heartbeat_state,)))
 
@@ -306,6 +373,7 @@ class Link:
             m = self.bus.recv(timeout)
             while m is not None:
                 got.append(self._take(m))
+                self._beat()             # a long backlog must not hold the heartbeat back
                 m = self.bus.recv(0.0)
         self._beat()
         return got

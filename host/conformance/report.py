@@ -38,6 +38,7 @@ def write_reports(out: Path, conf) -> None:
     }
     if conf.lateness:
         head["pacer_lateness"] = conf.lateness
+    head["reruns_host_lapsed"] = list(conf.reruns)
     doc = dict(head, checks=[{"id": r.id, "node": r.node, "documented": r.documented,
                               "observed": r.observed, "pass": r.passed, "kind": r.kind,
                               "asserted": r.asserted, "test": r.test} for r in conf.records])
@@ -55,6 +56,18 @@ def write_reports(out: Path, conf) -> None:
              ""]
     if conf.lateness:
         lines += [f"- pacer lateness of the emulator: {conf.lateness}", ""]
+    if conf.reruns:
+        lines += ["## Run again: the host's own heartbeat lapsed", "",
+                  "A test that failed while a device reported the host silent (EMCY HEARTBEAT_LOST "
+                  "naming the host, or HOST_TIMEOUT), without the test silencing it, was run again; "
+                  "the failed attempt's checks are not counted (docs/conformance.md, \"The host's own "
+                  "heartbeat\").", "",
+                  "| test | attempt | the devices said | host's longest gap between beats (wall) | failed then |",
+                  "|---|---|---|---|---|"]
+        for r in conf.reruns:
+            lines.append(f"| {_md(r['test'])} | {r['attempt']} | {_md('; '.join(r['lapses']))} | "
+                         f"{r['host_longest_beat_gap_wall_s'] * 1e3:.0f} ms | {_md('; '.join(r['failed']))} |")
+        lines.append("")
     failed = [r for r in conf.records if not r.passed]
     if failed:
         lines += ["## Outside the documents", "", "| node | check | documented | observed | |",
