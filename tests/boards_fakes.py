@@ -106,3 +106,22 @@ def install_leaky_pdo_gate(monkeypatch) -> None:
             return True
 
     monkeypatch.setattr(D, "PdoGate", LeakyGate)
+
+
+def install_axis_firmware(monkeypatch, cls) -> None:
+    """Build the axis boards of the next network (``host.network.build_network``) with firmware
+    class ``cls`` (a deliberately broken subclass of ``AxisController``).
+
+    A subclass in the registry, not a patched method: the firmware is compiled (mypyc,
+    bus/_native.py), and compiled code calls its own methods directly, so a method replaced on
+    the class would not be seen by the firmware that calls it."""
+    import dataclasses
+
+    import host.network as N
+    from boards import registry as R
+
+    boards = dict(N.BOARDS)
+    for name, (spec, inst) in R.BOARDS.items():
+        if spec.kind == "axis_controller":
+            boards[name] = (dataclasses.replace(spec, firmware=cls), inst)
+    monkeypatch.setattr(N, "BOARDS", boards)

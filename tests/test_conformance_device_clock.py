@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pytest
 
+from boards_fakes import install_axis_firmware
 from host.cli import main
 
 #: Mean rate of the slow emulator, simulated s per wall s (≈ the 0.27 measured in the CI guest
@@ -34,24 +35,6 @@ def _conform(tmp_path, *args: str, clock: str = "device"):
                  f"--pytest-arg=--cf-emulator-rate={RATE}",
                  f"--pytest-arg=--cf-clock={clock}", *args, "--out", str(out)])
     return code, json.loads((out / "conformance.json").read_text())
-
-
-def _axis_firmware(monkeypatch, cls) -> None:
-    """Build the axis boards with firmware class ``cls`` (a broken subclass of AxisController).
-
-    A subclass in the registry, not a patched method: the firmware is compiled (mypyc,
-    bus/_native.py), and compiled code calls its own methods directly, so a method replaced on
-    the class would not be seen by the firmware that calls it."""
-    import dataclasses
-
-    import host.network as N
-    from boards import registry as R
-
-    boards = dict(N.BOARDS)
-    for name, (spec, inst) in R.BOARDS.items():
-        if spec.kind == "axis_controller":
-            boards[name] = (dataclasses.replace(spec, firmware=cls), inst)
-    monkeypatch.setattr(N, "BOARDS", boards)
 
 
 def _failed(doc) -> set:
@@ -133,7 +116,7 @@ def test_late_command_reaction_fails_on_the_device_clock(tmp_path, monkeypatch):
             self.scheduler.call_at(self.scheduler.now_us + 100_000,
                                    lambda t: AxisController._command(self, c), owner="late command")
 
-    _axis_firmware(monkeypatch, LateAxis)
+    install_axis_firmware(monkeypatch, LateAxis)
     code, doc = _conform(tmp_path, "--nodes", "1,3", "-k", "velocity_and_open_loop")
     assert code == 1
     assert {"axis.VELOCITY.mode", "axis.OPEN_LOOP.mode"} <= _failed(doc) <= {
@@ -163,7 +146,7 @@ def test_wrong_preset_rate_fails_on_the_device_clock(tmp_path, monkeypatch, fact
         def _set_mode(self, mode, rate):
             AxisController._set_mode(self, mode, factor * rate)
 
-    _axis_firmware(monkeypatch, WrongRateAxis)
+    install_axis_firmware(monkeypatch, WrongRateAxis)
     code, doc = _conform(tmp_path, "--nodes", "1,3", "-k", "presets")
     failed = _failed(doc)
     assert code == 1 and {"axis.SLEW+1.rate", "axis.SET+1.rate", "axis.SLEW-1.rate"} <= failed, failed

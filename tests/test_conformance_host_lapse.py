@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from boards_fakes import install_axis_firmware
 from host.cli import main
 
 SCENARIO = Path(__file__).resolve().parent / "guest" / "conform-serve.yaml"
@@ -58,21 +59,13 @@ def test_the_test_is_run_again_when_the_device_reports_the_host_lapsed(tmp_path)
 def test_a_failure_without_a_host_lapse_is_not_run_again(tmp_path, monkeypatch):
     """A board that is wrong (SET at 1.3 × the written preset) fails once and is not re-run: the
     re-run needs the device's own statement that the host lapsed, not a failure."""
-    import dataclasses
-
-    import host.network as N
-    from boards import registry as R
     from boards.axis_controller import AxisController
 
     class WrongRateAxis(AxisController):
         def _set_mode(self, mode, rate):
             AxisController._set_mode(self, mode, 1.3 * rate)
 
-    boards = dict(N.BOARDS)
-    for name, (spec, inst) in R.BOARDS.items():
-        if spec.kind == "axis_controller":
-            boards[name] = (dataclasses.replace(spec, firmware=WrongRateAxis), inst)
-    monkeypatch.setattr(N, "BOARDS", boards)
+    install_axis_firmware(monkeypatch, WrongRateAxis)
     code, doc = _conform(tmp_path)
     assert code == 1 and "preset_write.effect" in _failed(doc), _failed(doc)
     assert doc["reruns_host_lapsed"] == []

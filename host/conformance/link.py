@@ -213,7 +213,7 @@ class Link:
         self.frames: List[Frame] = []
         self._by_cob: Dict[int, List[Frame]] = {}
         self.sent: List[Frame] = []
-        self._sent_after: List[int] = []     # len(frames) when each frame of ``sent`` went out
+        self._sent_after: Dict[int, int] = {}    # id(frame of ``sent``) -> len(frames) at its send
         self.master = MasterNetwork(self, sdo_timeout_s)
         self._heartbeat_on = True
         #: how many times :attr:`heartbeat_on` went False (a check silencing the host on purpose)
@@ -291,7 +291,7 @@ class Link:
 
     def _transmit(self, cob_id: int, data: bytes) -> None:
         self.sent.append(Frame(self._now(), cob_id, bytes(data), self.wall()))
-        self._sent_after.append(len(self.frames))
+        self._sent_after[id(self.sent[-1])] = len(self.frames)
         self.bus.send(can.Message(arbitration_id=cob_id, data=bytes(data), is_extended_id=False))
 
     def arrival_s(self, sent: Frame) -> float:
@@ -317,13 +317,12 @@ class Link:
         ValueError
             ``sent`` was not sent on this link.
         """
-        for i in range(len(self.sent) - 1, -1, -1):
-            if self.sent[i] is sent:
-                break
-        else:
+        # ``sent`` keeps its frames alive, so no other live object shares one of their ids
+        first = self._sent_after.get(id(sent))
+        if first is None:
             raise ValueError("arrival_s: the frame was not sent on this link")
         t = sent.t
-        for f in self.frames[self._sent_after[i]:]:
+        for f in self.frames[first:]:
             t = max(t, f.t)              # the clock's value after this frame (a stream's own
             if f.wall > sent.wall:       # stamp may lag it by more than the resolution)
                 return t
