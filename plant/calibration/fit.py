@@ -70,6 +70,9 @@ class Prepared:
     t_dec, q_dec, dq_dec, y_dec : ndarray, shape (M,)
         The decimated versions.
     record : Record
+    rest : ndarray of bool, shape (N,), or None
+        Full-rate samples at rest by the standstill rule of :func:`prepare` (None when standstill
+        samples are kept, as for EMPS): the Coulomb column ramps across them (:func:`stick_ramp`).
     """
 
     record: Record
@@ -88,6 +91,7 @@ class Prepared:
     keep: np.ndarray | None = None
     n_standstill: int = 0
     position_resolution: float = 0.0
+    rest: np.ndarray | None = None
 
     def dec(self, x: np.ndarray) -> np.ndarray:
         """Decimate full-rate column(s) (axis 0) like Matlab ``decimate`` (IIR, zero phase) and keep
@@ -185,8 +189,12 @@ def prepare(
         exclude_standstill = record.extra.get("format") != "emps"
     keep = None
     n_still = 0
+    rest = None
     if exclude_standstill:
         v95 = float(np.percentile(np.abs(dq_dec), 95))
+        rest = np.abs(dq) < standstill_frac * v95
+        if not rest.any():
+            rest = None
         mask = np.abs(dq_dec) >= standstill_frac * v95
         n_still = int((~mask).sum())
         if n_still:
@@ -195,7 +203,7 @@ def prepare(
     return Prepared(
         record=record, t=t, q=q, dq=dq, ddq=ddq, y=y, dt_s=dt, decim=decimate, cutoff_hz=cutoff_hz,
         t_dec=t_dec, q_dec=q_dec, dq_dec=dq_dec, y_dec=y_dec, keep=keep, n_standstill=n_still,
-        position_resolution=resolution,
+        position_resolution=resolution, rest=rest,
     )
 
 
@@ -321,6 +329,29 @@ def play_operator(q: np.ndarray, width: float) -> np.ndarray:
     return _play_kernel(np.ascontiguousarray(q, dtype=float), 0.5 * float(width))
 
 
+def stick_ramp(c: np.ndarray, rest: np.ndarray) -> np.ndarray:
+    """The Coulomb column ``c = sign(w)`` with each run of rest samples replaced by a straight line
+    from the sliding value before the run to the one after it.
+
+    While the axis sticks, the friction balances whatever torque is applied, and a servo loop
+    changes that torque continuously (a PI integrator ramps it through the static band at a
+    reversal). ``sign`` of a velocity at noise level flips from sample to sample instead: an error
+    of ±Fc at the rate of the samples, which the decimation filter spreads as ringing into the
+    moving samples beside the rest (docs/calibration.md, "Session 6"), where reversal effects
+    (pre-sliding, backlash) took it as evidence. The decimated rest samples are not fitted in any
+    case; this makes the error they leak smooth. Shapes: (N,) each; returns a new array.
+    """
+    out = np.array(c, dtype=float)
+    n = out.size
+    r = np.asarray(rest, dtype=bool)
+    edges = np.flatnonzero(np.diff(np.r_[0, r.astype(np.int8), 0]))
+    for a, b in zip(edges[0::2], edges[1::2]):
+        left = out[a - 1] if a > 0 else (out[b] if b < n else 0.0)
+        right = out[b] if b < n else left
+        out[a:b] = left + (right - left) * (np.arange(1, b - a + 1) / (b - a + 1))
+    return out
+
+
 def design_full(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None, t=None) -> tuple[list[str], np.ndarray]:
     """Full-rate regressor columns for ``spec`` (names, array of shape (N, p))."""
     q = prep.q if q is None else q
@@ -338,7 +369,12 @@ def design_full(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None, t=No
     if spec.presliding_k is not None:
         c = presliding_state(w, spec.presliding_k, dt)
     else:
-        c = np.sign(w)
+        if prep.rest is not None and spec.backlash_width is None and dq is prep.dq:
+            c = prep.__dict__.get("_coulomb_ramp")          # the same for every spec: computed once
+            if c is None:
+                c = prep.__dict__["_coulomb_ramp"] = stick_ramp(np.sign(w), prep.rest)
+        else:
+            c = np.sign(w)
     if spec.asymmetric:
         names += ["viscous_pos", "viscous_neg", "coulomb_pos", "coulomb_neg"]
         cols += [np.maximum(w, 0.0), np.minimum(w, 0.0), np.maximum(c, 0.0), np.minimum(c, 0.0)]
