@@ -70,9 +70,10 @@ class Prepared:
     t_dec, q_dec, dq_dec, y_dec : ndarray, shape (M,)
         The decimated versions.
     record : Record
-    rest : ndarray of bool, shape (N,), or None
-        Full-rate samples at rest by the standstill rule of :func:`prepare` (None when standstill
-        samples are kept, as for EMPS): the Coulomb column ramps across them (:func:`stick_ramp`).
+    coulomb : ndarray, shape (N,), or None
+        The baseline's Coulomb column: ``sign(dq)``, ramped across the full-rate samples at rest by
+        the standstill rule of :func:`prepare` (:func:`stick_ramp`); None when standstill samples
+        are kept (EMPS), where it is ``sign(dq)``.
     """
 
     record: Record
@@ -91,7 +92,7 @@ class Prepared:
     keep: np.ndarray | None = None
     n_standstill: int = 0
     position_resolution: float = 0.0
-    rest: np.ndarray | None = None
+    coulomb: np.ndarray | None = None
 
     def dec(self, x: np.ndarray) -> np.ndarray:
         """Decimate full-rate column(s) (axis 0) like Matlab ``decimate`` (IIR, zero phase) and keep
@@ -189,13 +190,11 @@ def prepare(
         exclude_standstill = record.extra.get("format") != "emps"
     keep = None
     n_still = 0
-    rest = None
+    coulomb = None
     if exclude_standstill:
-        v95 = float(np.percentile(np.abs(dq_dec), 95))
-        rest = np.abs(dq) < standstill_frac * v95
-        if not rest.any():
-            rest = None
-        mask = np.abs(dq_dec) >= standstill_frac * v95
+        v_still = standstill_frac * float(np.percentile(np.abs(dq_dec), 95))
+        coulomb = stick_ramp(np.sign(dq), np.abs(dq) < v_still)
+        mask = np.abs(dq_dec) >= v_still
         n_still = int((~mask).sum())
         if n_still:
             keep = np.flatnonzero(mask)
@@ -203,7 +202,7 @@ def prepare(
     return Prepared(
         record=record, t=t, q=q, dq=dq, ddq=ddq, y=y, dt_s=dt, decim=decimate, cutoff_hz=cutoff_hz,
         t_dec=t_dec, q_dec=q_dec, dq_dec=dq_dec, y_dec=y_dec, keep=keep, n_standstill=n_still,
-        position_resolution=resolution, rest=rest,
+        position_resolution=resolution, coulomb=coulomb,
     )
 
 
@@ -369,12 +368,8 @@ def design_full(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None, t=No
     if spec.presliding_k is not None:
         c = presliding_state(w, spec.presliding_k, dt)
     else:
-        if prep.rest is not None and spec.backlash_width is None and dq is prep.dq:
-            c = prep.__dict__.get("_coulomb_ramp")          # the same for every spec: computed once
-            if c is None:
-                c = prep.__dict__["_coulomb_ramp"] = stick_ramp(np.sign(w), prep.rest)
-        else:
-            c = np.sign(w)
+        use_ramp = prep.coulomb is not None and spec.backlash_width is None and dq is prep.dq
+        c = prep.coulomb if use_ramp else np.sign(w)
     if spec.asymmetric:
         names += ["viscous_pos", "viscous_neg", "coulomb_pos", "coulomb_neg"]
         cols += [np.maximum(w, 0.0), np.minimum(w, 0.0), np.maximum(c, 0.0), np.minimum(c, 0.0)]
