@@ -57,7 +57,8 @@ from plant.calibration.fit import (TRANSFERABLE_NUISANCE, FitResult, ModelSpec, 
                                     fit_model, predict)
 from plant.effects import EFFECT_KINDS, Effect, build_effect
 
-__all__ = ["LoopConfig", "AcceptedEffect", "LoopResult", "fit_baseline", "run_loop", "delta_bic", "cv_compare", "KINDS"]
+__all__ = ["LoopConfig", "AcceptedEffect", "LoopResult", "fit_baseline", "run_loop", "delta_bic", "cv_compare", "min_events",
+           "KINDS"]
 
 #: The effect kinds the loop may name: exactly the :mod:`plant.effects` registry.
 KINDS: tuple[str, ...] = tuple(EFFECT_KINDS)
@@ -116,6 +117,9 @@ class LoopResult:
     linear: bool = False
     log: list[str] = dataclasses.field(default_factory=list)
     out_of_library: list[dict[str, Any]] = dataclasses.field(default_factory=list)
+    #: reversal effects the record cannot decide (see :func:`min_events`): kind, step, gain, z,
+    #: ``n_reversals``, ``min_reversals``, ``note``; never effects
+    undecided: list[dict[str, Any]] = dataclasses.field(default_factory=list)
 
     def effects(self) -> list[Effect]:
         """The accepted effects as :mod:`plant.effects` objects, in the order they were added."""
@@ -189,6 +193,19 @@ def cv_compare(err0: np.ndarray, err1: np.ndarray, n_batches: int = 40) -> tuple
 def z_critical(alpha: float, n_tests: int) -> float:
     """One-sided normal critical value for a family-wise error ``alpha`` over ``n_tests`` tests (Bonferroni)."""
     return float(stats.norm.isf(alpha / max(n_tests, 1)))
+
+
+def min_events(alpha: float, n_tests: int) -> int:
+    """Fewest independent events (batches that all improve) that can pass the rule at all.
+
+    With ``k`` non-zero batch gains, the most extreme outcome under the symmetric null of
+    :func:`cv_compare` (all ``k`` positive) has probability ``2⁻ᵏ``, so no size of gain passes the
+    one-sided level ``alpha / n_tests`` unless ``k ≥ log₂(n_tests / alpha)`` (1 % over 60 tests:
+    13). A reversal effect (pre-sliding, backlash) acts mostly near the velocity reversals, so on a
+    record with fewer reversals than this its gain can pass only where it also helps away from them
+    (backlash on development record 1048 passed with 11); a refused one is reported as undecided.
+    """
+    return int(math.ceil(math.log2(max(n_tests, 1) / alpha)))
 
 
 def fit_baseline(prep: Prepared, cfg: LoopConfig | None = None) -> tuple[FitResult, dict[str, Any]]:
@@ -607,6 +624,8 @@ def run_loop(
     mov = res.moving_mask(prep.dq_dec)
     span = float(np.ptp(prep.q_dec[mov])) if mov.any() else float(np.ptp(prep.q_dec))
     vmax = float(np.percentile(np.abs(prep.dq), 99))
+    n_rev = int(res.reversal_profile(prep.t_dec, prep.dq_dec, np.zeros_like(prep.y_dec))["n_reversals"])
+    undecided: dict[str, dict[str, Any]] = {}
     step = 0
     while len(accepted) < cfg.max_effects and step < cfg.max_effects + 2:
         step += 1
@@ -630,6 +649,11 @@ def run_loop(
             if not (c["cv_z"] >= zc and c["cv_gain_pct"] > 0):
                 why = (f"does not predict held-out blocks better: gain {c['cv_gain_pct']:.2f} %, z = {c['cv_z']:.1f} "
                        f"(needs > 0 and z ≥ {zc:.2f})")
+                k_min = min_events(cfg.family_alpha, len(cands) * cfg.max_effects)
+                if (c["group"] == "reversal" and c["cv_gain_pct"] > 0 and n_rev < k_min
+                        and c["cv_gain_pct"] > undecided.get(c["kind"], {}).get("cv_gain_pct", 0.0)):
+                    undecided[c["kind"]] = {"kind": c["kind"], "step": step, "cv_gain_pct": c["cv_gain_pct"], "cv_z": c["cv_z"],
+                                            "n_reversals": n_rev, "min_reversals": k_min}
             elif c["kind"] in EFFECT_KINDS:
                 why = _resolved(c["fit"], prep.position_resolution)
             if why is None:
@@ -705,6 +729,15 @@ def run_loop(
         cur = f
         if prep_val is not None:
             val_cur = chosen["val_rms"]
+    und = []
+    for u in sorted(undecided.values(), key=lambda u: -u["cv_gain_pct"]):
+        if present & {"presliding", "backlash"}:
+            break  # a reversal effect was decided: its competitors lost to it, they are not undecided
+        u["note"] = (f"predicts held-out blocks better by {u['cv_gain_pct']:.1f} % (z = {u['cv_z']:.1f}), but the record has "
+                     f"{u['n_reversals']} velocity reversal(s); a gain confined to the reversals needs at least "
+                     f"{u['min_reversals']} to pass the rule (k reversals that all improve give at best p = 2^-k): not "
+                     f"decided by this record — record at least {u['min_reversals']} reversals to decide it")
+        und.append(u)
     vf = predict(prep_val, cur) if prep_val is not None else None
     vl = predict(prep_val, cur, library_only=True) if prep_val is not None else None
     return LoopResult(
@@ -712,5 +745,5 @@ def run_loop(
         stribeck=stribeck, val_rms_before=val_before,
         val_rms_after=float(np.sqrt(np.mean(vf[1] ** 2))) if vf is not None else None,
         val_rms_after_library=float(np.sqrt(np.mean(vl[1] ** 2))) if vl is not None else None,
-        val_baseline=vb, val_final=vf, linear=linear, log=log, out_of_library=ool,
+        val_baseline=vb, val_final=vf, linear=linear, log=log, out_of_library=ool, undecided=und,
     )

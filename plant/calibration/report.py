@@ -6,7 +6,8 @@ rms_after, variance_explained_pct, evidence}``), ``final {params, rms, relative_
 ``validation {rms_before, rms_after, rms_after_library_only}`` (with a held-out record), ``unexplained`` (list of
 ``{domain, frequency, share_pct}``), ``model_file``. Extra keys: ``units``, ``uncertainty``,
 ``significance`` (the rule), ``stribeck`` (the decision), ``rejected`` (candidates turned down and
-why), ``closed_loop`` (EMPS records), ``log``.
+why), ``undecided`` (reversal effects that predict better but that the record has too few
+reversals to decide, with the number it would need), ``closed_loop`` (EMPS records), ``log``.
 
 Parameter names carry units; for linear records (``--linear``, EMPS) they follow the record:
 ``mass_kg``, ``viscous_n_s_m``, ``coulomb_n``, ``period_m``, ``amplitude_n`` …
@@ -262,6 +263,7 @@ def calibrate(
         "significance": SIGNIFICANCE_TEXT.format(k=cfg.k_folds, alpha=cfg.family_alpha),
         "stribeck": {k: (float(v) if isinstance(v, (np.floating, float)) else v) for k, v in result.stribeck.items()},
         "rejected": result.rejected,
+        "undecided": result.undecided,
         "conclusion": (
             f"{len(effects)} effect(s) added: " + ", ".join(e["kind"] for e in effects)
             if effects else "no significant improvement: no effect added"
@@ -358,6 +360,9 @@ def _markdown(r: dict[str, Any]) -> str:
         where = f"{x['frequency']:.4g} {x.get('unit', '')}" if x.get("frequency") is not None else (x.get("kind") or "broadband")
         L.append(f"- {x['domain']}: {where}, {x['share_pct']:.1f} % of the residual variance"
                  + (f" — {x['note']}" if x.get("note") else ""))
+    if r.get("undecided"):
+        L += ["", "## Not decided by this record", ""]
+        L += [f"- {x['kind']}: {x['note']}." for x in r["undecided"]]
     L += ["", "## Significance rule", "", r["significance"], "", "## Candidates rejected", ""]
     for x in r["rejected"]:
         L.append(f"- step {x['step']}: {x['kind']} — {x['reason']}")
