@@ -62,6 +62,8 @@ __all__ = ["LoopConfig", "AcceptedEffect", "LoopResult", "fit_baseline", "run_lo
 
 #: The effect kinds the loop may name: exactly the :mod:`plant.effects` registry.
 KINDS: tuple[str, ...] = tuple(EFFECT_KINDS)
+#: The reversal effects: they compete for the residual at velocity reversals (one of them at most).
+REVERSAL_KINDS = frozenset({"presliding", "backlash"})
 #: Out-of-library descriptions that compete with the library (kept in the working model only).
 OUT_OF_LIBRARY = ("friction_drift", "delay")
 #: Out-of-library descriptions of the machine, not of the record (see
@@ -381,7 +383,7 @@ def _b_asymmetric(ctx: _Ctx) -> list[dict[str, Any]]:
 
 
 def _reversal_candidate(ctx: _Ctx, kind: str) -> list[dict[str, Any]]:
-    if ctx.present & {"presliding", "backlash"}:
+    if ctx.present & REVERSAL_KINDS:
         return []
     rv = res.reversal_profile(ctx.prep.t_dec, ctx.prep.dq_dec, ctx.cur.residual)
     if rv["n_reversals"] == 0:
@@ -641,6 +643,7 @@ def run_loop(
         cands.sort(key=lambda c: -c["cv_gain_pct"])
         # Bonferroni over every candidate test the run may make: family-wise error family_alpha
         zc = z_critical(cfg.family_alpha, len(cands) * cfg.max_effects)
+        k_min = min_events(cfg.family_alpha, len(cands) * cfg.max_effects)
         log.append(f"step {step} candidates (cross-validated gain %, z): "
                    + "; ".join(f"{c['kind']} {c['cv_gain_pct']:.2f} % z={c['cv_z']:.1f}" for c in cands))
         passing = []
@@ -649,7 +652,6 @@ def run_loop(
             if not (c["cv_z"] >= zc and c["cv_gain_pct"] > 0):
                 why = (f"does not predict held-out blocks better: gain {c['cv_gain_pct']:.2f} %, z = {c['cv_z']:.1f} "
                        f"(needs > 0 and z ≥ {zc:.2f})")
-                k_min = min_events(cfg.family_alpha, len(cands) * cfg.max_effects)
                 if (c["group"] == "reversal" and c["cv_gain_pct"] > 0 and n_rev < k_min
                         and c["cv_gain_pct"] > undecided.get(c["kind"], {}).get("cv_gain_pct", 0.0)):
                     undecided[c["kind"]] = {"kind": c["kind"], "step": step, "cv_gain_pct": c["cv_gain_pct"], "cv_z": c["cv_z"],
@@ -729,15 +731,13 @@ def run_loop(
         cur = f
         if prep_val is not None:
             val_cur = chosen["val_rms"]
-    und = []
-    for u in sorted(undecided.values(), key=lambda u: -u["cv_gain_pct"]):
-        if present & {"presliding", "backlash"}:
-            break  # a reversal effect was decided: its competitors lost to it, they are not undecided
+    # once a reversal effect is named its competitors lost to it: they are not undecided
+    und = [] if present & REVERSAL_KINDS else sorted(undecided.values(), key=lambda u: -u["cv_gain_pct"])
+    for u in und:
         u["note"] = (f"predicts held-out blocks better by {u['cv_gain_pct']:.1f} % (z = {u['cv_z']:.1f}), but the record has "
                      f"{u['n_reversals']} velocity reversal(s); a gain confined to the reversals needs at least "
                      f"{u['min_reversals']} to pass the rule (k reversals that all improve give at best p = 2^-k): not "
                      f"decided by this record — record at least {u['min_reversals']} reversals to decide it")
-        und.append(u)
     vf = predict(prep_val, cur) if prep_val is not None else None
     vl = predict(prep_val, cur, library_only=True) if prep_val is not None else None
     return LoopResult(

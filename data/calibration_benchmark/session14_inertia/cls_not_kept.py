@@ -11,7 +11,7 @@ inertia column only); the first run also corrected ``viscous`` and ``nz_delay_je
     CLS=1 OWNMOTION=1 PATCH=data/calibration_benchmark/session14_inertia/cls_not_kept.py \
         .venv/bin/python data/calibration_benchmark/session12_constancy/dev_runner.py OUT.json
 """
-import sys, os, math
+import os
 import numpy as np
 from scipy import optimize, signal
 import plant.calibration.fit as F
@@ -63,7 +63,6 @@ def _solve(X, y, names=None):
         coef = optimize.lsq_linear(M, r, bounds=(lo, np.full(len(names), np.inf)), method="bvls").x
     return coef, y - X @ coef
 F._solve = _solve; L._solve = _solve
-_prep = F.prepare
 
 _prep_orig = F.prepare
 def _prepare(record, *a, **k):
