@@ -28,6 +28,10 @@ def add_subparser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--linear", action="store_true", help="CSV position in m and force in N (linear drive)")
     p.add_argument("--axis", default="ra", help="axis: which sensor.log columns to read, and which axis of the plant parameter file receives the model (default ra)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    p.add_argument("--gear-stiffness", type=float, metavar="K",
+                   help="stiffness of the drive between the logged position and the load [N m/rad at the axis; N/m with "
+                        "--linear], from the drive's design: the report then gives the backlash gap (the fitted width is "
+                        "the motion lost at a reversal, gap + half the gear's wind-up) and the plant file receives the gap")
     p.set_defaults(func=run)
 
     g = subparsers.add_parser(
@@ -51,12 +55,14 @@ def run(args: argparse.Namespace) -> int:
 
     rep = calibrate(
         args.record, args.out, validate_path=args.validate, columns=parse_columns(args.columns),
-        linear=args.linear, plots=not args.no_plots, axis=args.axis,
+        linear=args.linear, plots=not args.no_plots, axis=args.axis, gear_stiffness=args.gear_stiffness,
     )
     b, f = rep["baseline"], rep["final"]
     print(f"baseline: rms {b['rms']:.4g}, relative error {b['relative_error_pct']:.3f} %")
     for e in rep["effects"]:
-        print(f"  + {e['kind']}: {e['params']} (explains {e['variance_explained_pct']:.1f} %)")
+        gap = e.get("gap_rad", e.get("gap_m"))
+        print(f"  + {e['kind']}: {e['params']} (explains {e['variance_explained_pct']:.1f} %)"
+              + (f"; gap {gap:.4g} with the gear stiffness {e['gear_stiffness']:.4g}" if gap is not None else ""))
     print(f"final:    rms {f['rms']:.4g}, relative error {f['relative_error_pct']:.3f} %")
     if "validation" in rep:
         v = rep["validation"]

@@ -81,6 +81,8 @@ def test_benchmark_writes_its_figures(ci_benchmark):
     assert s["failures"] == []
     for r in res["records"]:
         assert r["wall_s"] > 0 and r["peak_rss_mb"] > 0
+        assert isinstance(r["undecided"], list)
+    assert "missed_reported_undecided" in s
     assert "Confusion matrix" in (out / "benchmark.md").read_text()
 
 
@@ -106,3 +108,22 @@ def test_benchmark_targets_on_ci_subset(ci_benchmark):
     for name, k in s["key_parameters"].items():
         if k["n"] and k["tolerance"] is not None:
             assert k["within_tolerance"] == k["n"], (name, k)
+
+
+def test_score_counts_misses_the_record_could_not_decide():
+    """A record is listed as 'wrong only by undecided effects' when every missed kind is in its
+    ``undecided`` list and nothing extra was named; it stays wrong in the exact-set figure."""
+    from host.calibration_benchmark import score
+
+    und = [{"kind": "presliding", "cv_gain_pct": 8.0, "n_reversals": 3, "min_reversals": 13}]
+    recs = [
+        {"seed": 1, "hidden": ["presliding"], "named": [], "unexplained": [], "undecided": und},          # counted
+        {"seed": 2, "hidden": ["presliding"], "named": ["gravity_imbalance"], "unexplained": [], "undecided": und},  # extra kind
+        {"seed": 3, "hidden": ["backlash"], "named": [], "unexplained": [], "undecided": und},            # other kind undecided
+        {"seed": 4, "hidden": ["presliding", "position_periodic"], "named": ["position_periodic"], "unexplained": [],
+         "undecided": und},                                                                               # counted
+        {"seed": 5, "hidden": [], "named": [], "unexplained": [], "undecided": []},                      # right
+    ]
+    s = score(recs)
+    assert s["missed_reported_undecided"] == {"n": 2, "seeds": [1, 4]}
+    assert s["n_exact"] == 1

@@ -373,6 +373,8 @@ def make_record(seed: int, hidden: tuple[str, ...] | None = None, n_samples: int
                 meta["resonance_hz"] = f_res
             k_sp = j_eff * (2 * math.pi * f_res) ** 2
             c_sp = 2 * zeta * math.sqrt(k_sp * j_eff)
+            meta["two_mass"] = {"J_m": J_m, "J_l": J_l, "stiffness_nm_rad": k_sp, "damping_nms_rad": c_sp,
+                                "resonance_hz": f_res}
         elif h == "friction_drift_time":
             drift_a, drift_tau = float(rng.uniform(0.2, 0.5)), T / float(rng.uniform(2.0, 5.0))
             meta["drift"] = {"a": drift_a, "tau_s": drift_tau}

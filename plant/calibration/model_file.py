@@ -24,8 +24,13 @@ from pathlib import Path
 from plant.calibration.loop import LoopResult
 
 
-def write_model_file(result: LoopResult, path: str | Path, record_name: str, axis: str = "ra") -> Path:
+def write_model_file(result: LoopResult, path: str | Path, record_name: str, axis: str = "ra",
+                     backlash_gap: float | None = None) -> Path:
     """Write the calibrated plant parameter file; returns its path.
+
+    ``backlash_gap``: the gap [rad or m] from :func:`plant.calibration.loop.backlash_gap`; the
+    backlash effect then carries the gap instead of the fitted width (the plant's compliant
+    gear adds its own wind-up to the gap, so writing the width would count the wind-up twice).
 
     Raises
     ------
@@ -53,6 +58,8 @@ def write_model_file(result: LoopResult, path: str | Path, record_name: str, axi
     new_set = dataclasses.replace(s, sigma2_nm_s_rad=max(visc, 0.0), tc_nm=max(coul, 0.0), ts_nm=max(ts, 0.0), omega_s_rad_s=vs)
     fr2 = dataclasses.replace(fr, **{active: new_set})
     effects = tuple(e.to_spec() for e in result.effects())
+    if backlash_gap is not None:
+        effects = tuple({**e, "width_rad": backlash_gap} if e["kind"] == "backlash" else e for e in effects)
     ax2 = dataclasses.replace(ax, inertia_kg_m2=max(names["inertia"], 1e-12), friction=fr2, effects=effects)
     axes = dict(params.axes)
     axes[axis] = ax2

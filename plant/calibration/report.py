@@ -25,7 +25,7 @@ import numpy as np
 from plant.calibration import residuals as res
 from plant.calibration.fit import FitResult, prepare
 from plant.calibration.io import Record, load_record
-from plant.calibration.loop import LoopConfig, LoopResult, run_loop
+from plant.calibration.loop import LoopConfig, LoopResult, backlash_gap, friction_levels, run_loop
 
 __all__ = ["calibrate", "param_names", "effect_params"]
 
@@ -86,6 +86,13 @@ SIGNIFICANCE_TEXT = (
     "listed as its competitors. Transitions under 10 position quanta are not resolved and not added. Out-of-library "
     "descriptions (friction drift, delay) compete as well and win only when significantly better than the best "
     "library candidate; a winner is reported in 'unexplained', never written to the plant file."
+)
+
+
+LOST_MOTION_TEXT = (
+    "the width is the motion lost at a reversal as the logged position sees it: in a compliant drive the gap plus "
+    "half the gear's wind-up, width ≈ gap + (Fc + Ts)/(2k); give the drive's stiffness (--gear-stiffness) for the "
+    "gap (docs/calibration.md, 'Session 15')"
 )
 
 
@@ -190,6 +197,7 @@ def calibrate(
     plots: bool = True,
     closed_loop: bool = True,
     axis: str = "ra",
+    gear_stiffness: float | None = None,
 ) -> dict[str, Any]:
     """Calibrate: load, fit the baseline, run the effect loop, write the report and the model file.
 
@@ -208,6 +216,12 @@ def calibrate(
         Write the PNGs; run the EMPS closed-loop check (EMPS records only).
     axis : str
         Axis of the plant parameter file that receives the calibrated model.
+    gear_stiffness : float, optional
+        Stiffness of the drive between the logged position and the load [N·m/rad; N/m for linear
+        records], from the drive's design. The fitted backlash width is the motion lost at a
+        reversal (the gap plus half the gear's wind-up, :func:`plant.calibration.loop.backlash_gap`);
+        with the stiffness the report also gives the gap, and the plant file — whose gear adds
+        its own wind-up — receives the gap instead of the width.
 
     Returns
     -------
@@ -217,6 +231,8 @@ def calibrate(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     cfg = config or LoopConfig()
+    if gear_stiffness is not None and not (math.isfinite(gear_stiffness) and gear_stiffness > 0):
+        raise ValueError(f"--gear-stiffness: expected a positive stiffness [N·m/rad, or N/m with --linear], got {gear_stiffness!r}")
     rec = load_record(record_path, columns=columns, linear=linear, axis=axis)
     linear = rec.linear
     prep = prepare(rec)
@@ -228,9 +244,20 @@ def calibrate(
     result = run_loop(prep, prep_val, cfg, linear=linear)
     from plant.calibration.model_file import write_model_file
 
-    model_path = write_model_file(result, out / "calibrated_parameters.yaml", rec.name, axis=axis)
+    gap = None
+    if gear_stiffness is not None and result.final.spec.backlash_width is not None:
+        fc, ts = friction_levels(result.final)
+        gap = backlash_gap(result.final.spec.backlash_width, fc, ts, gear_stiffness)
+    model_path = write_model_file(result, out / "calibrated_parameters.yaml", rec.name, axis=axis,
+                                  backlash_gap=gap)
     effects = []
     for acc, eff in zip(result.accepted, result.effects()):
+        extra: dict[str, Any] = {}
+        if acc.kind == "backlash":
+            extra["width_meaning"] = LOST_MOTION_TEXT
+            if gap is not None:
+                extra["gap_m" if linear else "gap_rad"] = gap
+                extra["gear_stiffness"] = gear_stiffness
         effects.append(
             {
                 "kind": acc.kind,
@@ -243,6 +270,7 @@ def calibrate(
                 "cv_z": acc.cv_z,
                 "competitors": acc.competitors,
                 **({"validation_rms_after": acc.val_rms_after} if acc.val_rms_after is not None else {}),
+                **extra,
             }
         )
     _, base_sd = param_names(result.baseline, linear)
@@ -330,6 +358,11 @@ def _markdown(r: dict[str, Any]) -> str:
         ps = ", ".join(f"{k} = {_fmt(v)}" for k, v in e["params"].items())
         L += [f"{i}. **{e['kind']}** ({ps}); rms after {e['rms_after']:.4g}, explains {e['variance_explained_pct']:.1f} % "
               f"of the residual variance. {e['evidence']}"]
+        if "width_meaning" in e:
+            gk = "gap_m" if "gap_m" in e else "gap_rad"
+            L += [f"   Note: {e['width_meaning']}."
+                  + (f" With the gear stiffness {_fmt(e['gear_stiffness'])}: **{gk} = {_fmt(e[gk])}** (written to the plant "
+                     "file)." if gk in e else "")]
     L += ["", "## Final model", "", "| parameter | value | ±1σ (eff.) |", "|---|---|---|"]
     for k, v in r["final"]["params"].items():
         L.append(f"| {k} | {_fmt(v)} | {_fmt(r['uncertainty']['final_std'].get(k, ''))} |")

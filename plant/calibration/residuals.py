@@ -202,6 +202,27 @@ def find_peaks(spec: dict, n_peaks: int = 3, min_share: float = 0.0, fap_max: fl
     return out[:n_peaks]
 
 
+def reversal_indices(dq: np.ndarray) -> list[tuple[int, float]]:
+    """Velocity reversals: ``(index, direction of the new motion)`` for every sign change of the
+    moving samples (:func:`moving_mask` at 20 %), the index at the smallest ``|dq|`` between them."""
+    mov = moving_mask(dq, 0.2)
+    sgn = np.sign(dq) * mov
+    nz = np.flatnonzero(sgn)
+    ch = np.flatnonzero(sgn[nz[:-1]] != sgn[nz[1:]])
+    return [(int(nz[i] + np.argmin(np.abs(dq[nz[i] : nz[i + 1] + 1]))), float(sgn[nz[i + 1]])) for i in ch]
+
+
+def _window_samples(t: np.ndarray, window_s: float) -> int:
+    return max(int(round(window_s / float(np.median(np.diff(t))))), 2)
+
+
+def count_reversals(t: np.ndarray, dq: np.ndarray, window_s: float = 0.15) -> int:
+    """Number of velocity reversals with their whole ±``window_s`` inside the record (those
+    :func:`reversal_profile` averages)."""
+    w = _window_samples(t, window_s)
+    return sum(1 for k, _ in reversal_indices(dq) if k - w >= 0 and k + w < dq.size)
+
+
 def reversal_profile(t: np.ndarray, dq: np.ndarray, resid: np.ndarray, window_s: float = 0.15) -> dict:
     """Residual around velocity reversals, signed by the direction of the new motion.
 
@@ -214,17 +235,8 @@ def reversal_profile(t: np.ndarray, dq: np.ndarray, resid: np.ndarray, window_s:
         a much larger energy share than time share flags reversal effects).
     """
     dt = float(np.median(np.diff(t)))
-    w = max(int(round(window_s / dt)), 2)
-    mov = moving_mask(dq, 0.2)
-    sgn = np.sign(dq) * mov
-    nz = np.flatnonzero(sgn)
-    rev = []
-    for a, b in zip(nz[:-1], nz[1:]):
-        if sgn[a] != sgn[b]:
-            # the zero crossing between a and b
-            seg = dq[a : b + 1]
-            k = a + int(np.argmin(np.abs(seg)))
-            rev.append((k, float(sgn[b])))
+    w = _window_samples(t, window_s)
+    rev = reversal_indices(dq)
     lags = np.arange(-w, w + 1)
     prof = []
     inwin = np.zeros(resid.size, bool)
