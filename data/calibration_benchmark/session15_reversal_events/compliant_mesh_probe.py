@@ -93,49 +93,9 @@ def design_full(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None, t=No
 
 
 
-def one(seed):
-    from plant.calibration.bench_records import make_record
-    from plant.calibration.fit import fit_model, prepare
-    from plant.calibration.io import load_record
-    from plant.calibration.loop import run_loop
-    r = make_record(seed, ("backlash",))
-    d = pathlib.Path(tempfile.mkdtemp()); r.write_csv(d / "r.csv")
-    prep = prepare(load_record(d / "r.csv"))
-    res = run_loop(prep)
-    b = r.truth["backlash"]["width_rad"]
-    if "backlash" not in [a.kind for a in res.accepted] or res.final.spec.presliding_k is not None:
-        return {"seed": seed, "named": [a.kind for a in res.accepted]}
-    W = res.final.spec.backlash_width
-    q = prep.position_resolution
-    best = None
-    _fit.design_full = design_full
-    for disp in np.logspace(math.log10(0.1 * q), math.log10(0.5 * W), 12):
-        s = dataclasses.replace(res.final.spec.copy(), presliding_k=1.0 / disp,
-                                backlash_width=max(W - 2 * disp, 0.2 * W))
-        f = fit_model(prep, s, refine=False)
-        if best is None or f.rss < best.rss:
-            best = f
-    names = [n for n, _, _ in best.spec.hyper()]
-    rel = {i: (0.6 if n in ("backlash_width", "presliding_k") else 0.02) for i, n in enumerate(names)}
-    free = [i for i, n in enumerate(names) if n in ("backlash_width", "presliding_k")]
-    f2 = fit_model(prep, best.spec, rel_bounds=rel, free=free)
-    if f2.rss > best.rss:
-        f2 = best
-    return {"seed": seed, "named": [a.kind for a in res.accepted], "trajectory": r.meta["trajectory"], "gap": b,
-            "width_play": W, "width_compliant": f2.spec.backlash_width, "disp_compliant": 1.0 / f2.spec.presliding_k,
-            "rss_ratio": f2.rss / res.final.rss, "err_play": W / b - 1, "err_compliant": f2.spec.backlash_width / b - 1,
-            "quanta": q}
-
-
 if __name__ == "__main__":
-    outs = []
-    with ProcessPoolExecutor(2) as ex:
-        for o in ex.map(one, [int(x) for x in sys.argv[2:]]):
-            outs.append(o)
-            if "gap" in o:
-                print(o["seed"], o["trajectory"], o["named"], f"gap {o['gap']:.3g}: play {o['err_play']:+.0%}, compliant "
-                      f"{o['err_compliant']:+.0%} (disp {o['disp_compliant']:.3g} = {o['disp_compliant'] / o['quanta']:.1f} q), "
-                      f"rss ratio {o['rss_ratio']:.3f}", flush=True)
-            else:
-                print(o["seed"], o["named"], flush=True)
-    json.dump(outs, open(sys.argv[1], "w"), indent=1)
+    import functools
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    import compliant_play_probe as play
+    _fit.design_full = design_full   # before the workers fork; identical to the package's unless both slots are set
+    play.main(sys.argv, functools.partial(play.one, mesh=True))

@@ -14,7 +14,9 @@ import numpy as np
 sys.path.insert(0, os.getcwd())
 
 
-def one(seed):
+def one(seed, mesh=False):
+    """``mesh``: the grid of compliant_mesh_probe.py (d up to half the width, the gap b = width − 2d);
+    that script installs its design_full before the workers start."""
     from plant.calibration.bench_records import make_record
     from plant.calibration.fit import fit_model, prepare
     from plant.calibration.io import load_record
@@ -29,8 +31,9 @@ def one(seed):
     W = res.final.spec.backlash_width
     q = prep.position_resolution
     best = None
-    for disp in np.logspace(math.log10(0.1 * q), math.log10(W), 12):
-        s = dataclasses.replace(res.final.spec.copy(), presliding_k=1.0 / disp)
+    for disp in np.logspace(math.log10(0.1 * q), math.log10(0.5 * W if mesh else W), 12):
+        s = dataclasses.replace(res.final.spec.copy(), presliding_k=1.0 / disp,
+                                backlash_width=max(W - 2 * disp, 0.2 * W) if mesh else W)
         f = fit_model(prep, s, refine=False)
         if best is None or f.rss < best.rss:
             best = f
@@ -46,10 +49,10 @@ def one(seed):
             "quanta": q}
 
 
-if __name__ == "__main__":
+def main(argv, fn=one):
     outs = []
     with ProcessPoolExecutor(2) as ex:
-        for o in ex.map(one, [int(x) for x in sys.argv[2:]]):
+        for o in ex.map(fn, [int(x) for x in argv[2:]]):
             outs.append(o)
             if "gap" in o:
                 print(o["seed"], o["trajectory"], o["named"], f"gap {o['gap']:.3g}: play {o['err_play']:+.0%}, compliant "
@@ -57,4 +60,8 @@ if __name__ == "__main__":
                       f"rss ratio {o['rss_ratio']:.3f}", flush=True)
             else:
                 print(o["seed"], o["named"], flush=True)
-    json.dump(outs, open(sys.argv[1], "w"), indent=1)
+    json.dump(outs, open(argv[1], "w"), indent=1)
+
+
+if __name__ == "__main__":
+    main(sys.argv)
