@@ -58,7 +58,7 @@ from plant.calibration.fit import (TRANSFERABLE_NUISANCE, FitResult, ModelSpec, 
 from plant.effects import EFFECT_KINDS, Effect, build_effect
 
 __all__ = ["LoopConfig", "AcceptedEffect", "LoopResult", "fit_baseline", "run_loop", "delta_bic", "cv_compare", "min_events",
-           "KINDS", "backlash_gap", "friction_levels"]
+           "KINDS", "backlash_gap", "check_stiffness", "friction_levels"]
 
 #: The effect kinds the loop may name: exactly the :mod:`plant.effects` registry.
 KINDS: tuple[str, ...] = tuple(EFFECT_KINDS)
@@ -305,6 +305,19 @@ def friction_levels(fit: FitResult) -> tuple[float, float]:
     return fc, (fc + max(fit.param("stribeck"), 0.0)) if "stribeck" in fit.names else fc
 
 
+def check_stiffness(stiffness: float, name: str = "gear stiffness") -> float:
+    """Return ``stiffness`` if it is a positive finite number [N·m/rad or N/m].
+
+    Raises
+    ------
+    ValueError
+        Otherwise, naming ``name`` (e.g. the command-line option) and what was expected.
+    """
+    if not (math.isfinite(stiffness) and stiffness > 0):
+        raise ValueError(f"{name}: expected a positive stiffness [N·m/rad, or N/m for a linear drive], got {stiffness!r}")
+    return stiffness
+
+
 def backlash_gap(width: float, coulomb: float, static: float, stiffness: float) -> float:
     """The gear's gap from the fitted backlash width, given the drive's stiffness.
 
@@ -341,8 +354,7 @@ def backlash_gap(width: float, coulomb: float, static: float, stiffness: float) 
     ValueError
         ``stiffness`` is not a positive finite number.
     """
-    if not (math.isfinite(stiffness) and stiffness > 0):
-        raise ValueError(f"gear stiffness must be a positive number [N·m/rad or N/m], got {stiffness!r}")
+    check_stiffness(stiffness)
     return max(width - 0.5 * (max(coulomb, 0.0) + max(static, 0.0)) / stiffness, 0.0)
 
 

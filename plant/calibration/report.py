@@ -25,7 +25,7 @@ import numpy as np
 from plant.calibration import residuals as res
 from plant.calibration.fit import FitResult, prepare
 from plant.calibration.io import Record, load_record
-from plant.calibration.loop import LoopConfig, LoopResult, backlash_gap, friction_levels, run_loop
+from plant.calibration.loop import LoopConfig, LoopResult, backlash_gap, check_stiffness, friction_levels, run_loop
 
 __all__ = ["calibrate", "param_names", "effect_params"]
 
@@ -231,8 +231,8 @@ def calibrate(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     cfg = config or LoopConfig()
-    if gear_stiffness is not None and not (math.isfinite(gear_stiffness) and gear_stiffness > 0):
-        raise ValueError(f"--gear-stiffness: expected a positive stiffness [N·m/rad, or N/m with --linear], got {gear_stiffness!r}")
+    if gear_stiffness is not None:
+        check_stiffness(gear_stiffness, "--gear-stiffness")   # before anything runs or is written
     rec = load_record(record_path, columns=columns, linear=linear, axis=axis)
     linear = rec.linear
     prep = prepare(rec)

@@ -13,18 +13,6 @@ import numpy as np
 sys.path.insert(0, os.getcwd())
 
 
-def reversal_indices(dq):
-    from plant.calibration import residuals as res
-    mov = res.moving_mask(dq, 0.2)
-    sgn = np.sign(dq) * mov
-    nz = np.flatnonzero(sgn)
-    rev = []
-    for a, b in zip(nz[:-1], nz[1:]):
-        if sgn[a] != sgn[b]:
-            rev.append(a + int(np.argmin(np.abs(dq[a:b + 1]))))
-    return np.array(rev, int)
-
-
 def one(seed):
     from plant.calibration import loop as L
     from plant.calibration.bench_records import make_record
@@ -35,7 +23,8 @@ def one(seed):
     d = pathlib.Path(tempfile.mkdtemp(prefix=f"p15_{seed}_"))
     r.write_csv(d / "rec.csv")
     prep = prepare(load_record(d / "rec.csv"))
-    rev = reversal_indices(prep.dq_dec)
+    from plant.calibration.residuals import reversal_indices
+    rev = np.array([k for k, _ in reversal_indices(prep.dq_dec)], int)
     n = prep.y_dec.size
     cuts = np.r_[0, ((rev[:-1] + rev[1:]) // 2) if rev.size > 1 else np.array([], int), n]
     out = []
