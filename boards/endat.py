@@ -24,8 +24,7 @@ bits is detected as well.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Callable, Final, List, Optional, Sequence
+from typing import Callable, Final, List, NamedTuple, Optional, Sequence
 
 __all__ = [
     "CRC_POLY",
@@ -167,12 +166,12 @@ def parse_position_word(frame: int, nbits: int, position_bits: int = POSITION_BI
     """
     n = 2 + position_bits
     if nbits != n + 1 + CRC_BITS or not frame & 1:
-        return EnDatReading(None, False, start_ok=False)
+        return _NO_START
     payload = (frame >> 1) & ((1 << n) - 1)
     f1, f2 = payload & 1, (payload >> 1) & 1
     if crc5_word(payload, n) != _REV5[(frame >> (n + 1)) & 0x1F]:
-        return EnDatReading(None, False, f1, f2)
-    return EnDatReading(payload >> 2, True, f1, f2)
+        return _tuple_new(EnDatReading, (None, False, f1, f2, True))
+    return _tuple_new(EnDatReading, (payload >> 2, True, f1, f2, True))
 
 
 def word_to_bits(frame: int, nbits: int) -> List[int]:
@@ -201,9 +200,8 @@ def build_position_frame(position: int, *, f1: int = 0, f2: int = 0,
     return [1] + payload + [(crc >> (CRC_BITS - 1 - i)) & 1 for i in range(CRC_BITS)]
 
 
-@dataclass(frozen=True)
-class EnDatReading:
-    """Result of one position exchange.
+class EnDatReading(NamedTuple):
+    """Result of one position exchange (immutable).
 
     Attributes
     ----------
@@ -215,6 +213,9 @@ class EnDatReading:
         Error bits as received.
     start_ok : bool
         A start bit was seen.
+
+    A ``NamedTuple`` (not a frozen dataclass): the readers build one per exchange, and
+    ``tuple.__new__`` builds it without a Python-level ``__init__`` (session 16, issue 12).
     """
 
     position: Optional[int]
@@ -227,6 +228,12 @@ class EnDatReading:
     def valid(self) -> bool:
         """Usable: start bit, CRC good and no encoder alarm."""
         return self.start_ok and self.crc_ok and not self.f1 and not self.f2
+
+
+#: ``tuple.__new__(EnDatReading, values)``: built without the NamedTuple's Python-level ``__new__``
+_tuple_new: Final = tuple.__new__
+#: the reading of a frame without its start bit (or of the wrong length)
+_NO_START: Final = EnDatReading(None, False, 0, 0, False)
 
 
 def parse_position_frame(bits: Sequence[int], position_bits: int = POSITION_BITS) -> EnDatReading:

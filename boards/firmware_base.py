@@ -487,7 +487,8 @@ class Board(Firmware):
         """The condition ``code`` is known to be gone now: report FAULT_CLEARED (the EMCY error
         reset) at once; no-op if it is not active (neither here nor as an EMCY condition)."""
         held = self.active_faults.pop(code, None) is not None
-        if held or self.device.emcy.is_active(EMCY_OF_FAULT[code]):
+        # ``emcy.is_active``, inlined: the EMCY service is interpreted and the axes ask every tick
+        if held or EMCY_OF_FAULT[code] in self.device.emcy.active:
             self.send_fault(FAULT_CLEARED, detail=code)
 
     def _expire_faults(self, now_us: int) -> None:

@@ -847,7 +847,7 @@ def decode_focus_status(data) -> FocusStatus:
     dt, flags, lvdt, pos, enc = _unpack(_S_FOCUS_STATUS, data, "FOCUS_STATUS", _DT_FOCUS)
     if lvdt > ADC_MAX:
         raise MalformedFrame("FOCUS_STATUS", "lvdt_adc", "10-bit value 0..1023", lvdt)
-    return FocusStatus(flags, lvdt, pos, enc)
+    return _tuple_new(FocusStatus, (flags, lvdt, pos, enc))
 
 
 # -- AXIS_AUX -------------------------------------------------------------------------------------
@@ -970,7 +970,7 @@ def decode_heartbeat(data) -> Heartbeat:
     """Decode ``HEARTBEAT``; raises MalformedFrame."""
     if len(data) != 1:
         raise MalformedFrame("HEARTBEAT", "dlc", "1", len(data))
-    return Heartbeat(_enum_or_raise(_STATE, data[0], "HEARTBEAT", "state", MalformedFrame))
+    return _tuple_new(Heartbeat, (_enum_or_raise(_STATE, data[0], "HEARTBEAT", "state", MalformedFrame),))
 
 
 # -- issue 12, room nodes: codecs ------------------------------------------------------------------
@@ -996,7 +996,7 @@ def encode_display_status(flags: _Int, frames_received: _Int, refreshes: _Int) -
 def decode_display_status(data) -> DisplayStatus:
     """Decode ``DISPLAY_STATUS``; raises MalformedFrame."""
     dt, flags, n, r = _unpack(_S_DISPLAY_STATUS, data, "DISPLAY_STATUS", _DT_DISPLAY)
-    return DisplayStatus(flags, n, r)
+    return _tuple_new(DisplayStatus, (flags, n, r))
 
 
 _S_DOME_STATUS: Final = struct.Struct("<BBBHHx")
@@ -1064,7 +1064,7 @@ def decode_weather_status(data) -> WeatherStatus:
     dt, flags, t, h, w = _unpack(_S_WEATHER_STATUS, data, "WEATHER_STATUS", _DT_WEATHER)
     if h > HUMIDITY_CPCT_MAX:
         raise MalformedFrame("WEATHER_STATUS", "humidity_cpct", "0..10000", h)
-    return WeatherStatus(flags, t, h, w)
+    return _tuple_new(WeatherStatus, (flags, t, h, w))
 
 
 # ------------------------------------------------------------------------------------------------
@@ -1418,7 +1418,7 @@ def decode_axis_velocity(data) -> AxisVelocity:
     dt, window, counts, rate = _unpack(_S_AXIS_VELOCITY, data, "AXIS_VELOCITY", _DT_VEL)
     if not 1 <= window <= VEL_MAX_WINDOW_TICKS:
         raise MalformedFrame("AXIS_VELOCITY", "window_ticks", f"1..{VEL_MAX_WINDOW_TICKS}", window)
-    return AxisVelocity(window, counts, rate)
+    return _tuple_new(AxisVelocity, (window, counts, rate))
 
 
 _add(FrameSpec("AXIS_VELOCITY", FC_STATUS, VEL_NODES, "node", AXIS_VELOCITY_PERIOD_US, (

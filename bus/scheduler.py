@@ -107,23 +107,20 @@ class Event:
         return f"<Event {self.describe_owner()} at {self.t_us} µs prio {self.priority}{rep}{state}>"
 
 
-def _before(a: Event, b: Event) -> bool:
-    """True if ``a`` runs before ``b``: ``(t_us, priority, seq)`` compared in that order."""
-    if a.t_us != b.t_us:
-        return a.t_us < b.t_us
-    if a.priority != b.priority:
-        return a.priority < b.priority
-    return a.seq < b.seq
-
-
 def _sift_down(heap: list[Event], start: int, pos: int) -> None:
     """Move ``heap[pos]`` towards the root (not above ``start``) until its parent runs before
     it (``heapq._siftdown``)."""
     item = heap[pos]
+    # does item run before parent? ``(t_us, priority, seq)`` compared in that order, written out
+    # here and in _sift_up instead of a helper (a native call per comparison, session 16)
+    t = item.t_us
+    prio = item.priority
+    seq = item.seq
     while pos > start:
         parent_pos = (pos - 1) >> 1
         parent = heap[parent_pos]
-        if _before(item, parent):
+        pt = parent.t_us
+        if t < pt or (t == pt and (prio < parent.priority or (prio == parent.priority and seq < parent.seq))):
             heap[pos] = parent
             pos = parent_pos
             continue
@@ -141,8 +138,13 @@ def _sift_up(heap: list[Event], pos: int) -> None:
     child = 2 * pos + 1
     while child < end:
         right = child + 1
-        if right < end and not _before(heap[child], heap[right]):
-            child = right
+        if right < end:
+            # the right child runs first? (keys are unique, so "not child first" is the same)
+            c = heap[child]
+            r = heap[right]
+            if r.t_us < c.t_us or (r.t_us == c.t_us and (r.priority < c.priority
+                                                         or (r.priority == c.priority and r.seq < c.seq))):
+                child = right
         heap[pos] = heap[child]
         pos = child
         child = 2 * pos + 1

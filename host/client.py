@@ -42,13 +42,41 @@ for _cob, _entry in P.COB_TABLE.items():
 _POSITION_BAD: Final = int(P.PositionFlags.CRC_ERROR | P.PositionFlags.INVALID)
 _AUX_TURNS_UNKNOWN: Final = int(P.AuxFlags.TURNS_UNKNOWN)
 
-__all__ = ["HostClient", "Health", "AxisState", "NODE_NAMES", "AXIS_NODES"]
+__all__ = ["HostClient", "Health", "AxisState", "NODE_NAMES", "AXIS_NODES", "AdcCurrent"]
 
 AXIS_NODES: Final = nodes_of_kind("axis_controller")       #: {"ra": 1, "dec": 2}
 READER_NODES: Final = nodes_of_kind("position_reader")    #: {"ra": 3, "dec": 4}
 _AXIS_OF_NODE: Final = {node: axis for axis, node in AXIS_NODES.items()}
-#: ``bus.protocol.node_of`` (None only for broadcasts, which reach no handler that uses it)
-_node_of: Callable[[int], Any] = P.node_of
+
+
+def _node_of(cob_id: int) -> Any:
+    """``bus.protocol.node_of`` (None only for broadcasts, which reach no handler that uses it),
+    called natively: a module-level alias of it would go through Python's call protocol on every
+    frame."""
+    return P.node_of(cob_id)
+
+
+class AdcCurrent:
+    """``adc_to_current_a`` of :class:`HostClient` for a board ADC and a shunt: counts → A as
+    ``adc.to_volts(counts) / shunt_ohm`` (the same arithmetic), compiled so the host's two calls
+    per AXIS_AUX frame are not interpreted lambdas (session 16, issue 12).
+
+    Parameters
+    ----------
+    adc : boards.peripherals.Adc-like
+        Its ``lsb_v`` [V per count] is read at every call, as ``to_volts`` does.
+    shunt_ohm : float
+        Current-sense shunt [Ω] (paper §3.3: 0.1 Ω; from the parameter file).
+    """
+
+    def __init__(self, adc: Any, shunt_ohm: float) -> None:
+        self.adc = adc
+        self.shunt_ohm = shunt_ohm
+
+    def __call__(self, counts: int) -> float:
+        return counts * self.adc.lsb_v / self.shunt_ohm
+
+
 #: issue 12: tachometer node -> (axis, motor); auxiliary-encoder node -> axis (from the registry)
 TACH_MOTOR_OF_NODE: Final[dict[int, Any]] = {int(i.node_id): (i.axis, i.motor) for s in REGISTRY if s.kind == "tachometer"
                       for i in s.instances}

@@ -71,7 +71,7 @@ from bus.telemetry import SAMPLE_FIELDS
 from bus.units import TICK_US
 from host import faults as _faults
 from host import hid_device
-from host.client import HostClient
+from host.client import AdcCurrent, HostClient
 from host.logs import DisplayLog
 from host.gateway_bus import HidGatewayBus
 from host.rs232 import Rs232Hub
@@ -550,7 +550,7 @@ def build_network(scenario: Scenario, host_cls: type[HostClient] = HostClient,
         # the duty-speed map with the counter fraction the axis firmware runs
         open_loop_duty=lambda rate, axis: open_loop_duty(rate, params.axes[axis],
                                                          boards[_AXIS_BOARD[axis]].counter_fraction),
-        adc_to_current_a=lambda c: adc.to_volts(c) / shunt,
+        adc_to_current_a=AdcCurrent(adc, shunt),
         arcsec_per_count={axis: boards[_AXIS_BOARD[axis]].arcsec_per_count for axis in AXES},
     )
     # issue 12: resolutions of the tachometers and auxiliary encoders that run (maintenance quantities)
