@@ -49,19 +49,23 @@ def one(seed, mesh=False):
             "quanta": q}
 
 
-def main(argv, fn=one):
+def _line(o):
+    return (f"gap {o['gap']:.3g}: play {o['err_play']:+.0%}, compliant {o['err_compliant']:+.0%} "
+            f"(disp {o['disp_compliant']:.3g} = {o['disp_compliant'] / o['quanta']:.1f} q), rss ratio {o['rss_ratio']:.3f}")
+
+
+def main(argv, fn=one, line=_line):
+    """Run ``fn`` on the seeds ``argv[2:]`` (2 workers), print ``line(o)`` for each record where
+    backlash was named (the seed and named kinds otherwise), write the outputs to ``argv[1]``."""
     outs = []
     with ProcessPoolExecutor(2) as ex:
         for o in ex.map(fn, [int(x) for x in argv[2:]]):
             outs.append(o)
             if "gap" in o:
-                print(o["seed"], o["trajectory"], o["named"], f"gap {o['gap']:.3g}: play {o['err_play']:+.0%}, compliant "
-                      f"{o['err_compliant']:+.0%} (disp {o['disp_compliant']:.3g} = {o['disp_compliant'] / o['quanta']:.1f} q), "
-                      f"rss ratio {o['rss_ratio']:.3f}", flush=True)
+                print(o["seed"], o["trajectory"], o["named"], line(o), flush=True)
             else:
                 print(o["seed"], o["named"], flush=True)
     json.dump(outs, open(argv[1], "w"), indent=1)
-
 
 if __name__ == "__main__":
     main(sys.argv)

@@ -9,8 +9,7 @@ only ``b`` is refined. Compared with main's ``loop.backlash_gap`` on the same lo
 
 Usage: python mesh_gap_probe.py OUT.json SEED...   (backlash-only records)
 """
-import json, math, os, pathlib, sys, tempfile
-from concurrent.futures import ProcessPoolExecutor
+import os, pathlib, sys, tempfile
 
 import numpy as np
 
@@ -62,15 +61,11 @@ def one(seed):
             "err_width": W / gap - 1, "windup_over_gap": (fc + ts) / (2 * K) / gap, "rss_ratio": fit.rss / res.final.rss}
 
 
+def _line(o):
+    return (f"gap {o['gap']:.3g}: width {o['err_width']:+.0%}, formula {o['err_formula']:+.0%}, mesh {o['err_mesh']:+.0%} "
+            f"(half wind-up/gap {o['windup_over_gap']:.2f}; rss ratio {o['rss_ratio']:.3f})")
+
+
 if __name__ == "__main__":
-    outs = []
-    with ProcessPoolExecutor(2) as ex:
-        for o in ex.map(one, [int(x) for x in sys.argv[2:]]):
-            outs.append(o)
-            if "gap" in o:
-                print(o["seed"], o["trajectory"], o["named"], f"gap {o['gap']:.3g}: width {o['err_width']:+.0%}, formula "
-                      f"{o['err_formula']:+.0%}, mesh {o['err_mesh']:+.0%} (half wind-up/gap {o['windup_over_gap']:.2f}; "
-                      f"rss ratio {o['rss_ratio']:.3f})", flush=True)
-            else:
-                print(o["seed"], o["named"], flush=True)
-    json.dump(outs, open(sys.argv[1], "w"), indent=1)
+    import compliant_play_probe as play
+    play.main(sys.argv, one, _line)
