@@ -32,6 +32,30 @@ TARGET_RTF = {"basic": 80, "full": 50}
 TARGET_RATIO = {"full": 10}
 
 
+def interpreter() -> dict:
+    """The Python that runs the benchmark: ``version``, ``executable`` and ``libpython_shared``.
+
+    ``libpython_shared`` is True when the interpreter runs from a shared ``libpython*.so``
+    (``/proc/self/maps``; None where that file does not exist). Two CPythons of the same version
+    run this emulator at different speeds: on the 2-core VMs, Debian's ``/usr/bin/python3.11``
+    (built with PGO and LTO, libpython linked into the executable) ran ``full`` 1.18× faster on
+    average than pyenv's default build (no PGO, shared libpython), first on ``PATH`` there
+    (docs/performance.md, "The interpreter"). A figure is comparable with another only for the
+    same interpreter, so the benchmark prints which one ran.
+    """
+    import platform
+    import sys
+
+    shared = None
+    try:
+        with open("/proc/self/maps", encoding="ascii", errors="replace") as f:
+            shared = any("/libpython" in line for line in f)
+    except OSError:
+        pass
+    return {"version": platform.python_version(), "implementation": platform.python_implementation(),
+            "executable": os.path.realpath(sys.executable), "libpython_shared": shared}
+
+
 def networks() -> dict[str, tuple[str, ...]]:
     """Network name -> board instance names: ``boards.registry.NETWORKS`` (``basic``, ``lab``,
     ``full``)."""
@@ -194,6 +218,7 @@ def bench(scenario, network: str, seconds: float, repeat: int) -> dict:
         # which of bus._native.NATIVE_MODULES ran compiled (SCHMIDT_FIL_NATIVE=0: none)
         "native_modules": len(native_modules()),
         "native_modules_listed": len(NATIVE_MODULES),
+        "python": interpreter(),
     }
 
 
@@ -222,6 +247,10 @@ def run(args: argparse.Namespace) -> int:
     print(f"compiled hot path (mypyc): {out['native_modules']} of {out['native_modules_listed']} modules"
           + ("" if out["native_modules"] else
              " (pure Python: SCHMIDT_FIL_NATIVE=0, or installed without compiling; docs/performance.md)"))
+    py = out["python"]
+    print(f"python {py['version']} ({py['executable']}; libpython "
+          + {True: "shared: slower than a static PGO build, docs/performance.md \"The interpreter\")",
+             False: "linked in)", None: "unknown)"}[py["libpython_shared"]])
     pc, pi = out["plant_us_per_tick"], out["plant_us_per_tick_interpreted"]
     print(f"one axis plant alone, per 5 ms tick ({out['plant_backend']} kernel): twin_train "
           f"{pc['twin_train']} µs, rigid {pc['rigid']} µs; interpreted: twin_train "

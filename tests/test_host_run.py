@@ -165,6 +165,13 @@ def test_bench_json_keys(capsys):
     # longest (8-byte, 135 bits) frame per frame counted, at 1 Mbit/s (1 bit = 1 µs)
     fps = out["bus_frames_per_s"]
     assert fps > 0 and fps * 47 / 1e4 <= out["bus_load_pct"] <= fps * 135 / 1e4
+    # the interpreter that ran: figures of different builds are not comparable
+    import platform
+    import sys
+    py = out["python"]
+    assert py["version"] == platform.python_version()
+    assert Path(py["executable"]) == Path(sys.executable).resolve()
+    assert py["libpython_shared"] in (True, False, None)
 
 
 def test_bench_unknown_network_fails_before_running(capsys):
