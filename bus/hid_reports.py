@@ -226,19 +226,23 @@ def decode_in_frames(report) -> tuple:
     ``(arbitration_id, data, timestamp_us)`` tuple (no :class:`Frame`/:class:`Report` objects: the
     host's receive path, every report). Same checks; a report :func:`decode_report` refuses
     raises the same :class:`ReportError`."""
-    b = bytes(report)
-    if len(b) == REPORT_SIZE:
-        kind, count, flags, seq = _S_HEADER.unpack_from(b, 0)
-        if kind == KIND_IN and count <= FRAMES_PER_REPORT:
-            vals = _S_SLOTS[count].unpack_from(b, _S_HEADER.size)
-            frames = []
+    b: bytes = bytes(report)
+    if len(b) == REPORT_SIZE and b[0] == KIND_IN:
+        # header bytes read directly and the slots unpacked once; typed locals, so the compiled
+        # module compares and indexes natively (session 17)
+        count: int = b[1]
+        if count <= FRAMES_PER_REPORT:
+            vals: tuple = _S_SLOTS[count].unpack_from(b, 4)
+            frames: list = []
             for i in range(0, 4 * count, 4):
-                aid, dlc = vals[i], vals[i + 1]
+                aid: int = vals[i]
+                dlc: int = vals[i + 1]
                 if aid > 0x7FF or dlc > 8:
                     break
-                frames.append((aid, vals[i + 2][:dlc], vals[i + 3]))
+                data: bytes = vals[i + 2]
+                frames.append((aid, data if dlc == 8 else data[:dlc], vals[i + 3]))
             else:
-                return flags, seq, frames
+                return b[2], b[3], frames
     rep = decode_report(b, KIND_IN)          # raises ReportError naming the field
     return rep.flags, rep.seq, [tuple(f) for f in rep.frames]
 
