@@ -420,7 +420,7 @@ class TxBuffers:
         self._count = 0                      # frames waiting: buffered (not on the wire) + FIFO
         #: the frame offered next (``self[0]``), None when nothing waits in a buffer
         self.head: Any = None
-        self._txp: dict = {}                 # identifier -> TXP, asked once per identifier
+        self._txp: dict[int, int] = {}       # identifier -> TXP, asked once per identifier
 
     def _rank(self, arbitration_id: int, i: int) -> int:
         txp = self._txp.get(arbitration_id)
@@ -441,12 +441,22 @@ class TxBuffers:
                 buf[i] = (p, self._rank(p.arbitration_id, i))
 
     def _select(self) -> None:
+        # entries read as typed tuples: native item reads and int compares (session 17)
         best, best_rank, sending = None, -1, self._sending
-        for i, e in enumerate(self.buf):
-            if e is not None and e[1] > best_rank and i != sending:
-                best, best_rank = i, e[1]
+        buf = self.buf
+        for i in range(len(buf)):
+            e = buf[i]
+            if e is not None:
+                et: tuple = e
+                rank: int = et[1]
+                if rank > best_rank and i != sending:
+                    best, best_rank = i, rank
         self._cand = best
-        self.head = None if best is None else self.buf[best][0]
+        if best is None:
+            self.head = None
+        else:
+            eb: tuple = buf[best]
+            self.head = eb[0]
 
     def append(self, pending) -> None:
         self._count += 1
@@ -458,7 +468,7 @@ class TxBuffers:
                     rank = (txp * self.n + i) if txp is not None else self._rank(pending.arbitration_id, i)
                     buf[i] = (pending, rank)
                     c = self._cand
-                    if c is None or rank > buf[c][1]:
+                    if c is None or rank > _rank_of(buf[c]):
                         self._cand = i
                         self.head = pending
                     return
@@ -477,7 +487,7 @@ class TxBuffers:
         self._sending = c
         self._count -= 1
         self._select()
-        return self.buf[c][0]
+        return _pending_of(self.buf[c])
 
     def appendleft(self, pending) -> None:
         c = self._sending
@@ -490,7 +500,7 @@ class TxBuffers:
     def sent(self, pending) -> None:
         """``pending`` completed on the wire: its buffer frees and the firmware refills it."""
         c = self._sending
-        if c is not None and self.buf[c][0] is pending:
+        if c is not None and _pending_of(self.buf[c]) is pending:
             self.buf[c] = None
             self._sending = None
             if self.fifo:
@@ -521,6 +531,16 @@ class _Pending:
         self.seq = seq
         #: arbitration order, as the tuple (identifier, seq) but one integer compare
         self.key = (arbitration_id << 48) | seq
+
+
+def _pending_of(entry: tuple) -> Any:
+    """The frame of a :class:`TxBuffers` entry ``(pending, rank)`` (a typed, native read)."""
+    return entry[0]
+
+
+def _rank_of(entry: tuple) -> int:
+    """The rank of a :class:`TxBuffers` entry ``(pending, rank)``."""
+    return entry[1]
 
 
 def _heads_push(heap: list[_Pending], item: _Pending) -> None:
@@ -882,10 +902,16 @@ class CanNetwork:
         self._seq += 1
         self._npending += 1
         pending = _Pending(bus, aid, data, self.scheduler.now_us, self._seq)
-        queue.append(pending)
+        if queue.__class__ is TxBuffers:
+            # typed: the compiled module calls TxBuffers natively (session 17)
+            tq: TxBuffers = queue
+            tq.append(pending)
+            offered = tq.head
+        else:
+            queue.append(pending)
+            offered = queue[0]                   # (a FIFO: it is the only one)
         self._active[bus] = queue
-        if not self._faulty and (queue.head if queue.__class__ is TxBuffers
-                                 else queue[0]) is pending:   # (a FIFO: it is the only one)
+        if not self._faulty and offered is pending:
             _heads_push(self._heads, pending)
         if not self._busy and not self._arb_scheduled:
             self._arb_scheduled = True
@@ -931,7 +957,8 @@ class CanNetwork:
                 if queue is None:                    # its bus was detached meanwhile
                     continue
                 if queue.__class__ is TxBuffers:
-                    if queue.head is head:           # else no longer what the node offers
+                    tq: TxBuffers = queue         # typed: native calls (session 17)
+                    if tq.head is head:              # else no longer what the node offers
                         best = head
                         break
                 elif queue and queue[0] is head:
@@ -942,18 +969,20 @@ class CanNetwork:
             return
         bus_key = best.bus
         queue = self._queues[bus_key]
-        queue.popleft()
         if queue.__class__ is TxBuffers:
-            nxt = queue.head
-            if queue._count == 0:
+            tq = queue
+            tq.popleft()
+            nxt = tq.head
+            if tq._count == 0:
                 del self._active[bus_key]
             elif nxt is not None and not self._faulty:
                 _heads_push(self._heads, nxt)
-        elif not queue:
-            del self._active[bus_key]
-        elif not self._faulty:
-            nxt = queue[0]
-            _heads_push(self._heads, nxt)
+        else:
+            queue.popleft()
+            if not queue:
+                del self._active[bus_key]
+            elif not self._faulty:
+                _heads_push(self._heads, queue[0])
         self._npending -= 1
         bits = frame_bits(best.arbitration_id, best.data)
         if self.bitrate == 1_000_000:
@@ -1007,9 +1036,10 @@ class CanNetwork:
         sender = pending.bus
         queue = self._queues.get(sender)
         if queue is not None and queue.__class__ is TxBuffers:
-            old = queue.head
-            queue.sent(pending)                   # its buffer frees; the firmware refills it
-            nxt = queue.head
+            tq: TxBuffers = queue                 # typed: native calls (session 17)
+            old = tq.head
+            tq.sent(pending)                      # its buffer frees; the firmware refills it
+            nxt = tq.head
             if nxt is not None:
                 self._active[sender] = queue
                 if nxt is not old and not self._faulty:
