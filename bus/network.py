@@ -474,13 +474,13 @@ class TxBuffers:
                     return
         self.fifo.append(pending)            # every buffer taken: the firmware's FIFO
 
-    def __getitem__(self, k):
+    def __getitem__(self, k: int) -> Any:
         c = self._cand
         if k != 0 or c is None:
             raise IndexError("TxBuffers: only [0], the frame offered next, when one is pending")
         return self.buf[c][0]
 
-    def popleft(self):
+    def popleft(self) -> Any:
         c = self._cand
         if c is None:
             raise IndexError("TxBuffers: nothing pending")
