@@ -210,8 +210,11 @@ class SimBus(can.BusABC):
         return out
 
     def set_rx_callback(self, fn: Callable[[], object] | None) -> None:
-        """Install the receive interrupt: ``fn()`` runs at the end of each accepted delivery."""
+        """Install the receive interrupt: ``fn()`` runs at the end of each accepted delivery.
+        (The network's receivers table holds the callback, so it is told to rebuild.)"""
         self._rx_callback = fn
+        if self._attached:
+            self.network.filters_changed()
 
     @property
     def rx_pending(self) -> int:

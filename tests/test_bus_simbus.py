@@ -118,6 +118,30 @@ def test_rx_callback_runs_through_scheduler_after_delivery(sched, channel):
     assert seen == [(100 + frame_bits(0x201, bytes(8)), 0x201)]
 
 
+def test_rx_callback_changed_by_an_earlier_interrupt_of_the_same_frame(sched, channel):
+    """Receive interrupts of one frame run in attach order, and each runs the callback its bus
+    has at that moment: one switched off, or replaced, by an earlier receiver's interrupt of the
+    same frame is not the one called (the network's table caches the callbacks, session 17)."""
+    a, b, c, d = (SimBus(channel, name=n) for n in "abcd")
+    calls = []
+    c.set_rx_callback(lambda: calls.append("c"))
+    d.set_rx_callback(lambda: calls.append("d-old"))
+
+    def b_isr():
+        calls.append("b")
+        c.set_rx_callback(None)                        # e.g. a board reset by b's handler
+        d.set_rx_callback(lambda: calls.append("d-new"))
+
+    b.set_rx_callback(b_isr)
+    a.send(frame(0x201))
+    sched.run_until(1_000)
+    assert calls == ["b", "d-new"]
+    calls.clear()
+    a.send(frame(0x202))                               # the table is rebuilt with the new ones
+    sched.run_until(2_000)
+    assert calls == ["b", "d-new"]
+
+
 def test_receive_own_messages(sched, channel):
     """receive_own_messages=True echoes the bus's own frames (is_rx False)."""
     a = SimBus(channel, receive_own_messages=True)
