@@ -39,6 +39,8 @@ __all__ = [
 REPORT_SIZE: Final = 64
 _S_HEADER: Final = struct.Struct("<BBBB")
 _S_SLOT: Final = struct.Struct("<HB8sI")
+#: bytes of the header (kind, count, flags, seq), where the first slot starts
+_HEADER_BYTES: Final = _S_HEADER.size
 #: CAN frames per report, each way: (64 − 4 header) // 15-byte slot = 4.
 FRAMES_PER_REPORT: Final = (REPORT_SIZE - _S_HEADER.size) // _S_SLOT.size
 #: the slots of a report with n frames, and the whole report (header + n slots, zero padded
@@ -232,7 +234,7 @@ def decode_in_frames(report) -> tuple:
         # module compares and indexes natively (session 17)
         count: int = b[1]
         if count <= FRAMES_PER_REPORT:
-            vals: tuple = _S_SLOTS[count].unpack_from(b, 4)
+            vals: tuple = _S_SLOTS[count].unpack_from(b, _HEADER_BYTES)
             frames: list = []
             for i in range(0, 4 * count, 4):
                 aid: int = vals[i]

@@ -441,22 +441,17 @@ class TxBuffers:
                 buf[i] = (p, self._rank(p.arbitration_id, i))
 
     def _select(self) -> None:
-        # entries read as typed tuples: native item reads and int compares (session 17)
+        # entries read through _rank_of/_pending_of: native item reads and int compares
         best, best_rank, sending = None, -1, self._sending
         buf = self.buf
         for i in range(len(buf)):
             e = buf[i]
-            if e is not None:
-                et: tuple = e
-                rank: int = et[1]
-                if rank > best_rank and i != sending:
+            if e is not None and i != sending:
+                rank = _rank_of(e)
+                if rank > best_rank:
                     best, best_rank = i, rank
         self._cand = best
-        if best is None:
-            self.head = None
-        else:
-            eb: tuple = buf[best]
-            self.head = eb[0]
+        self.head = None if best is None else _pending_of(buf[best])
 
     def append(self, pending) -> None:
         self._count += 1
@@ -478,7 +473,7 @@ class TxBuffers:
         c = self._cand
         if k != 0 or c is None:
             raise IndexError("TxBuffers: only [0], the frame offered next, when one is pending")
-        return self.buf[c][0]
+        return _pending_of(self.buf[c])
 
     def popleft(self) -> Any:
         c = self._cand
@@ -491,7 +486,7 @@ class TxBuffers:
 
     def appendleft(self, pending) -> None:
         c = self._sending
-        if c is None or self.buf[c][0] is not pending:
+        if c is None or _pending_of(self.buf[c]) is not pending:
             raise BusError("TxBuffers: only the frame on the wire can go back to pending")
         self._sending = None
         self._count += 1
