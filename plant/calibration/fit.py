@@ -56,6 +56,12 @@ MAX_FULL_RATE = 250_000
 MAX_FIT_SAMPLES = 60_000
 
 
+#: Harmonics of a periodic motion's fundamental in the ``"phase_function"`` nuisance (assumed: the
+#: smooth stand-ins documented on periodic records — gravity, a line at the motion's own frequency
+#: — live in the first three; gravity over a 180° travel, ``sin(A sin φ)`` with ``A = π/2``, has
+#: > 99 % of its power in harmonics 1–3, Bessel ``J1..J3``; docs/calibration.md, session 18).
+PHASE_HARMONICS = 3
+
 @dataclasses.dataclass
 class Prepared:
     """A record made ready for the fit (full-rate filtered signals plus the decimation).
@@ -236,11 +242,16 @@ class ModelSpec:
     gravity: bool = False
     time_frequencies: list[float] = dataclasses.field(default_factory=list)
     nuisance: list[str] = dataclasses.field(default_factory=list)
+    #: fundamental [Hz] of a periodic motion, for the ``"phase_function"`` nuisance
+    phase_hz: float | None = None
     #   out-of-library descriptions kept in the working model so that library effects can still be
     #   found on top of them (never written to the plant file): "friction_drift" (Coulomb and
     #   viscous terms times τ and τ², τ = normalised time), "delay" (the jerk column: a shift of the
     #   torque against the motion, to first order), "velocity_function" (piecewise-linear in |dq| per
-    #   direction, used only to test whether a time line is a velocity-dependent error)
+    #   direction, used only to test whether a time line is a velocity-dependent error),
+    #   "phase_function" (sin, cos of k·2π·phase_hz·t, k = 1..PHASE_HARMONICS: any smooth function of
+    #   a periodic motion's phase, used only to test whether a smooth term stands in for the model's
+    #   own error on a periodic trajectory, loop.periodic_motion_hz)
 
     def copy(self) -> "ModelSpec":
         return dataclasses.replace(
@@ -414,6 +425,13 @@ def design_full(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None, t=No
                 hinge = np.maximum(a - kn, 0.0)
                 names += [f"nz_vel{j}_pos", f"nz_vel{j}_neg"]
                 cols += [hinge * (w > 0), hinge * (w < 0)]
+        elif nz == "phase_function":
+            if spec.phase_hz is None:
+                raise ValueError("the phase_function nuisance needs ModelSpec.phase_hz")
+            for k in range(1, PHASE_HARMONICS + 1):
+                x = 2 * np.pi * k * spec.phase_hz * t
+                names += [f"nz_phase{k}_sin", f"nz_phase{k}_cos"]
+                cols += [np.sin(x), np.cos(x)]
     return names, np.column_stack(cols)
 
 

@@ -29,7 +29,12 @@ Algorithm
    description wins only if it predicts significantly better than the best library candidate. A
    time-periodic candidate at a frequency where the motion itself has a line must pass the test
    again with a flexible velocity function in both models (so a velocity-dependent model error
-   cannot pass as a disturbance). Transitions (pre-sliding displacement, backlash width) under
+   cannot pass as a disturbance). On a periodic motion (:func:`periodic_motion_hz`: ``PHASE_HARMONICS``
+   harmonics of one fundamental explain ≥ ``PERIODIC_MIN_SHARE`` of the velocity, ≥ 3 cycles) a
+   gravity, position-periodic or time-periodic candidate must pass the test again with those
+   harmonics in both models (the phase guard: position, velocity, acceleration and the motion's
+   own lines are then functions of one phase, and a smooth term can stand in for the model's
+   error along it). Transitions (pre-sliding displacement, backlash width) under
    :data:`MIN_TRANSITION_COUNTS` position quanta are not resolved and not added. A candidate whose
    fit drives a positive inertia to its bound 0 stands in for the inertia and is refused
    (:func:`_replaces_inertia`).
@@ -53,12 +58,12 @@ import numpy as np
 from scipy import stats
 
 from plant.calibration import residuals as res
-from plant.calibration.fit import (TRANSFERABLE_NUISANCE, FitResult, ModelSpec, Prepared, _solve, design, effective_n,
-                                    fit_model, predict)
+from plant.calibration.fit import (PHASE_HARMONICS, TRANSFERABLE_NUISANCE, FitResult, ModelSpec, Prepared, _solve, design,
+                                    effective_n, fit_model, predict)
 from plant.effects import EFFECT_KINDS, Effect, build_effect
 
 __all__ = ["LoopConfig", "AcceptedEffect", "LoopResult", "fit_baseline", "run_loop", "delta_bic", "cv_compare", "min_events",
-           "KINDS", "backlash_gap", "check_stiffness", "friction_levels"]
+           "KINDS", "backlash_gap", "check_stiffness", "friction_levels", "periodic_motion_hz"]
 
 #: The effect kinds the loop may name: exactly the :mod:`plant.effects` registry.
 KINDS: tuple[str, ...] = tuple(EFFECT_KINDS)
@@ -70,6 +75,8 @@ OUT_OF_LIBRARY = ("friction_drift", "delay")
 #: :data:`plant.calibration.fit.TRANSFERABLE_COLUMNS`): with a held-out record they must lower its
 #: rms, as a library effect must, and they stay in its prediction.
 TRANSFERABLE = tuple(TRANSFERABLE_NUISANCE)
+#: Smooth terms that a periodic motion's phase function can stand in for (the phase guard of :func:`run_loop`).
+PHASE_GUARDED = frozenset({"gravity_imbalance", "position_periodic", "time_periodic"})
 #: Gravity imbalance is tried when the travel spans at least this much [rad] (20°): below it
 #: ``sin θ``, ``cos θ`` are nearly collinear with the offset (cos) and a position-linear torque
 #: (sin), and amplitude and phase trade off against each other.
@@ -581,6 +588,64 @@ def motion_share(prep: Prepared, f_hz: float) -> float:
     return best
 
 
+#: A motion is periodic when the ``PHASE_HARMONICS`` harmonics of one fundamental explain at least
+#: this share of the decimated velocity's variance (assumed: sinusoid trajectories reach ≥ 0.986,
+#: square-ish back-and-forth sweeps ≈ 0.93, staircases and tracking runs far less; docs/calibration.md,
+#: session 18).
+PERIODIC_MIN_SHARE = 0.95
+#: ... and when the record holds at least this many of its periods (fewer: every smooth function of
+#: time would count as "periodic").
+PERIODIC_MIN_CYCLES = 3.0
+
+
+def periodic_motion_hz(prep: Prepared) -> tuple[float | None, float]:
+    """The fundamental [Hz] of a periodic motion, or None, and the share of the velocity's variance
+    its ``PHASE_HARMONICS`` harmonics explain (0..1).
+
+    The fundamental is refined on a ±3 % grid around the full-rate velocity spectrum's strongest peak
+    (with at least ``PERIODIC_MIN_CYCLES`` cycles in the record) and around half and a third of it
+    (the peak may be a harmonic); the share is measured on the full-rate velocity taken every
+    decimation step (evenly spaced, standstills included). On a periodic motion position, velocity, acceleration and the motion's own
+    time lines are functions of one phase, so a smooth term can stand in for the model's error
+    (see :func:`run_loop`, the phase guard).
+    """
+    # evenly spaced, unfiltered times: the full-rate rows, one per decimation step (the decimated
+    # time base t_dec passed through the decimation filter, which bends it at the ends)
+    step = max(int(prep.decim), 1)
+    t = prep.t[::step] - prep.t[0]
+    v = prep.dq[::step]
+    n = t.size
+    if n < 16 or t[-1] <= 0:
+        return None, 0.0
+    v0 = v - v.mean()
+    var = float(v0 @ v0)
+    if var <= 0:
+        return None, 0.0
+    freqs = np.fft.rfftfreq(n, d=prep.dt_s * step)
+    spec = np.abs(np.fft.rfft(v0 * np.hanning(n)))
+    # (3 % slack: a record of exactly three periods is periodic; the grid below is ±3 % wide)
+    min_cycles = 0.97 * PERIODIC_MIN_CYCLES
+    ok = freqs >= min_cycles / t[-1]
+    if not ok.any():
+        return None, 0.0
+    f_peak = float(freqs[int(np.argmax(np.where(ok, spec, 0.0)))])
+    best_f, best_share = None, 0.0
+    for div in (1.0, 2.0, 3.0):
+        for f in np.linspace(0.97 * f_peak / div, 1.03 * f_peak / div, 61):
+            if f * t[-1] < min_cycles:
+                continue
+            cols = [np.ones_like(t)]
+            for k in range(1, PHASE_HARMONICS + 1):
+                cols += [np.sin(2 * np.pi * k * f * t), np.cos(2 * np.pi * k * f * t)]
+            X = np.column_stack(cols)
+            coef, *_ = np.linalg.lstsq(X, v, rcond=None)
+            r = v - X @ coef
+            share = 1.0 - float(r @ r) / var
+            if share > best_share:
+                best_f, best_share = float(f), share
+    return (best_f if best_share >= PERIODIC_MIN_SHARE else None), best_share
+
+
 def time_shift_diagnostic(prep: Prepared, fit: FitResult) -> dict[str, float]:
     """How much of the residual a time shift between torque and motion explains.
 
@@ -688,6 +753,10 @@ def run_loop(
     vmax = float(np.percentile(np.abs(prep.dq), 99))
     n_rev = res.count_reversals(prep.t_dec, prep.dq_dec)
     undecided: dict[str, dict[str, Any]] = {}
+    phase_hz, phase_share = periodic_motion_hz(prep)
+    if phase_hz is not None:
+        log.append(f"periodic motion: {PHASE_HARMONICS} harmonics of {phase_hz:.5g} Hz explain {100 * phase_share:.1f} % of the "
+                   "velocity; smooth position and time terms must also predict with them in both models (phase guard)")
     step = 0
     while len(accepted) < cfg.max_effects and step < cfg.max_effects + 2:
         step += 1
@@ -731,6 +800,20 @@ def run_loop(
                     why = (f"the motion has a line at this frequency ({100 * c['motion_share']:.0f} % of the velocity signal) "
                            f"and with a flexible velocity function in the model the line no longer predicts (gain {g:.2f} %, "
                            f"z = {z:.1f}): a velocity-dependent model error, not a disturbance")
+            if why is None and phase_hz is not None and c["kind"] in PHASE_GUARDED:
+                # a periodic motion: must still predict with any smooth function of its phase in both models
+                s0 = cur.spec.copy()
+                s0.nuisance.append("phase_function")
+                s0.phase_hz = phase_hz
+                s1 = c["fit"].spec.copy()
+                s1.nuisance.append("phase_function")
+                s1.phase_hz = phase_hz
+                g, z = cv_compare(cv_losses(prep, s0, cfg.k_folds), cv_losses(prep, s1, cfg.k_folds))
+                if not (z >= zc and g > 0):
+                    why = (f"the motion is periodic ({PHASE_HARMONICS} harmonics of {phase_hz:.4g} Hz explain "
+                           f"{100 * phase_share:.1f} % of the velocity) and with those harmonics in the model the term no "
+                           f"longer predicts (gain {g:.2f} %, z = {z:.1f}): on this record it cannot be told apart from a "
+                           "smooth error of the model along the motion's phase")
             if why is None and prep_val is not None and (c["kind"] in EFFECT_KINDS or c["kind"] in TRANSFERABLE):
                 _, vr = predict(prep_val, c["fit"])
                 c["val_rms"] = float(np.sqrt(np.mean(vr**2)))
