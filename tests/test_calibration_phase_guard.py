@@ -104,3 +104,24 @@ def test_the_same_line_on_a_non_periodic_motion_is_named():
     res = _run(_record(_staircase(), lambda t, q: 0.5 * np.sin(2 * math.pi * 0.3 * t)))
     assert "time_periodic" in [a.kind for a in res.accepted]
     assert not any(r["reason"].startswith("the motion is periodic") for r in res.rejected)
+
+
+def test_a_line_within_one_frequency_bin_of_a_harmonic_is_refused_as_unresolvable():
+    """2·f0 + 0.3/T: 0.3 cycles of drift against the harmonic over the record, so the harmonic in
+    the model does not absorb it, but the record cannot resolve it from the harmonic (Rayleigh)."""
+    v, f0 = _sinusoid()
+    T = v.size / FS_HZ
+    f_line = 2 * f0 + 0.3 / T
+    res = _run(_record(v, lambda t, q: 0.5 * np.sin(2 * math.pi * f_line * t)))
+    assert "time_periodic" not in [a.kind for a in res.accepted]
+    reasons = [r["reason"] for r in res.rejected if r["kind"] == "time_periodic"]
+    assert any("within one frequency bin" in r and "harmonic 2" in r for r in reasons), reasons
+
+
+def test_a_line_two_bins_from_a_harmonic_is_named():
+    v, f0 = _sinusoid()
+    T = v.size / FS_HZ
+    f_line = 2 * f0 + 2.5 / T
+    res = _run(_record(v, lambda t, q: 0.5 * np.sin(2 * math.pi * f_line * t)))
+    assert "time_periodic" in [a.kind for a in res.accepted]
+    assert any(abs(f - f_line) / f_line < 0.01 for f in res.final.spec.time_frequencies)

@@ -34,7 +34,8 @@ Algorithm
    gravity, position-periodic or time-periodic candidate must pass the test again with those
    harmonics in both models (the phase guard: position, velocity, acceleration and the motion's
    own lines are then functions of one phase, and a smooth term can stand in for the model's
-   error along it). Transitions (pre-sliding displacement, backlash width) under
+   error along it); a time-periodic candidate within one frequency bin (``1/T``, the record's
+   Rayleigh resolution) of one of those harmonics is refused outright. Transitions (pre-sliding displacement, backlash width) under
    :data:`MIN_TRANSITION_COUNTS` position quanta are not resolved and not added. A candidate whose
    fit drives a positive inertia to its bound 0 stands in for the inertia and is refused
    (:func:`_replaces_inertia`).
@@ -754,6 +755,7 @@ def run_loop(
     n_rev = res.count_reversals(prep.t_dec, prep.dq_dec)
     undecided: dict[str, dict[str, Any]] = {}
     phase_hz, phase_share = periodic_motion_hz(prep)
+    t_span = float(prep.t[-1] - prep.t[0])
     if phase_hz is not None:
         log.append(f"periodic motion: {PHASE_HARMONICS} harmonics of {phase_hz:.5g} Hz explain {100 * phase_share:.1f} % of the "
                    "velocity; smooth position and time terms must also predict with them in both models (phase guard)")
@@ -800,6 +802,15 @@ def run_loop(
                     why = (f"the motion has a line at this frequency ({100 * c['motion_share']:.0f} % of the velocity signal) "
                            f"and with a flexible velocity function in the model the line no longer predicts (gain {g:.2f} %, "
                            f"z = {z:.1f}): a velocity-dependent model error, not a disturbance")
+            if why is None and phase_hz is not None and c["kind"] == "time_periodic":
+                # within one frequency bin (1/T, Rayleigh) of a guarded harmonic: not resolvable from it
+                f_c = c["fit"].spec.time_frequencies[c["slot"]]
+                k_near = max(1, min(PHASE_HARMONICS, round(f_c / phase_hz)))
+                if abs(f_c - k_near * phase_hz) < 1.0 / t_span:
+                    why = (f"the motion is periodic ({PHASE_HARMONICS} harmonics of {phase_hz:.4g} Hz explain "
+                           f"{100 * phase_share:.1f} % of the velocity) and the line at {f_c:.5g} Hz lies within one frequency "
+                           f"bin (1/T = {1.0 / t_span:.3g} Hz) of its harmonic {k_near}: this record cannot resolve it from "
+                           "a function of the motion's phase")
             if why is None and phase_hz is not None and c["kind"] in PHASE_GUARDED:
                 # a periodic motion: must still predict with any smooth function of its phase in both models
                 s0 = cur.spec.copy()
