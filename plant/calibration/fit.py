@@ -62,6 +62,7 @@ MAX_FIT_SAMPLES = 60_000
 #: > 99 % of its power in harmonics 1–3, Bessel ``J1..J3``; docs/calibration.md, session 18).
 PHASE_HARMONICS = 3
 
+
 @dataclasses.dataclass
 class Prepared:
     """A record made ready for the fit (full-rate filtered signals plus the decimation).

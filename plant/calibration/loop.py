@@ -35,8 +35,9 @@ Algorithm
    harmonics in both models (the phase guard: position, velocity, acceleration and the motion's
    own lines are then functions of one phase, and a smooth term can stand in for the model's
    error along it); a time-periodic candidate within one frequency bin (``1/T``, the record's
-   Rayleigh resolution) of one of those harmonics is refused outright. Transitions (pre-sliding displacement, backlash width) under
-   :data:`MIN_TRANSITION_COUNTS` position quanta are not resolved and not added. A candidate whose
+   Rayleigh resolution) of one of those harmonics is refused outright. Transitions (pre-sliding
+   displacement, backlash width) under :data:`MIN_TRANSITION_COUNTS` position quanta are not
+   resolved and not added. A candidate whose
    fit drives a positive inertia to its bound 0 stands in for the inertia and is refused
    (:func:`_replaces_inertia`).
 4. **Out-of-library structure**: a winning out-of-library description is kept in the working model
@@ -590,9 +591,9 @@ def motion_share(prep: Prepared, f_hz: float) -> float:
 
 
 #: A motion is periodic when the ``PHASE_HARMONICS`` harmonics of one fundamental explain at least
-#: this share of the decimated velocity's variance (assumed: sinusoid trajectories reach ≥ 0.986,
-#: square-ish back-and-forth sweeps ≈ 0.93, staircases and tracking runs far less; docs/calibration.md,
-#: session 18).
+#: this share of the velocity's variance (assumed: on the benchmark's fixed seeds sinusoid
+#: trajectories reach ≥ 0.987, square-ish back-and-forth sweeps 0.925–0.930, staircases and tracking
+#: runs far less, EMPS 0.936; fixed before any calibration was run, docs/calibration.md, session 18).
 PERIODIC_MIN_SHARE = 0.95
 #: ... and when the record holds at least this many of its periods (fewer: every smooth function of
 #: time would count as "periodic").
@@ -606,9 +607,15 @@ def periodic_motion_hz(prep: Prepared) -> tuple[float | None, float]:
     The fundamental is refined on a ±3 % grid around the full-rate velocity spectrum's strongest peak
     (with at least ``PERIODIC_MIN_CYCLES`` cycles in the record) and around half and a third of it
     (the peak may be a harmonic); the share is measured on the full-rate velocity taken every
-    decimation step (evenly spaced, standstills included). On a periodic motion position, velocity, acceleration and the motion's own
-    time lines are functions of one phase, so a smooth term can stand in for the model's error
-    (see :func:`run_loop`, the phase guard).
+    decimation step (evenly spaced, standstills included). On a periodic motion position,
+    velocity, acceleration and the motion's own time lines are functions of one phase, so a smooth
+    term can stand in for the model's error (see :func:`run_loop`, the phase guard).
+
+    Returns
+    -------
+    (float or None, float)
+        The fundamental [Hz] when the share reaches :data:`PERIODIC_MIN_SHARE`, else None; the best
+        share found (0..1).
     """
     # evenly spaced, unfiltered times: the full-rate rows, one per decimation step (the decimated
     # time base t_dec passed through the decimation filter, which bends it at the ends)
