@@ -83,7 +83,10 @@ SIGNIFICANCE_TEXT = (
     "(Diebold-Mariano 1995) at a family-wise error of {alpha:g} over all candidate tests of the run (Bonferroni: "
     "z >= about 3.6 for 12 candidates x 5 steps). Parameters are fitted inside physical bounds. With --validate the "
     "held-out rms must fall too. Of the candidates that pass, the largest predictive gain wins; the others are "
-    "listed as its competitors. Transitions under 10 position quanta are not resolved and not added. Out-of-library "
+    "listed as its competitors. On a periodic motion (3 harmonics of one fundamental explain >= 95 % of the velocity) "
+    "gravity, position- and time-periodic candidates must also predict with those harmonics in both models, and a time "
+    "line within one frequency bin (1/T) of one of them is refused (the phase guard). Transitions under 10 position "
+    "quanta are not resolved and not added. Out-of-library "
     "descriptions (friction drift, delay) compete as well and win only when significantly better than the best "
     "library candidate; a winner is reported in 'unexplained', never written to the plant file."
 )
