@@ -243,8 +243,6 @@ class ModelSpec:
     gravity: bool = False
     time_frequencies: list[float] = dataclasses.field(default_factory=list)
     nuisance: list[str] = dataclasses.field(default_factory=list)
-    #: fundamental [Hz] of a periodic motion, for the ``"phase_function"`` nuisance
-    phase_hz: float | None = None
     #   out-of-library descriptions kept in the working model so that library effects can still be
     #   found on top of them (never written to the plant file): "friction_drift" (Coulomb and
     #   viscous terms times τ and τ², τ = normalised time), "delay" (the jerk column: a shift of the
@@ -253,6 +251,8 @@ class ModelSpec:
     #   "phase_function" (sin, cos of k·2π·phase_hz·t, k = 1..PHASE_HARMONICS: any smooth function of
     #   a periodic motion's phase, used only to test whether a smooth term stands in for the model's
     #   own error on a periodic trajectory, loop.periodic_motion_hz)
+    #: fundamental [Hz] of a periodic motion, for the ``"phase_function"`` nuisance
+    phase_hz: float | None = None
 
     def copy(self) -> "ModelSpec":
         return dataclasses.replace(

@@ -725,6 +725,18 @@ def _ool_entry(kind: str, share: float, gain: float, z: float, shift_s: float | 
             **({"shift_s": shift_s} if shift_s is not None else {})}
 
 
+def _gain_with_nuisance(prep: Prepared, cur: ModelSpec, cand: ModelSpec, nuisance: str, k_folds: int,
+                        phase_hz: float | None = None) -> tuple[float, float]:
+    """:func:`cv_compare` of the current model and the candidate, both with the nuisance description
+    ``nuisance`` added (and ``phase_hz`` set for ``"phase_function"``): (gain %, z)."""
+    s0, s1 = cur.copy(), cand.copy()
+    for sp in (s0, s1):
+        sp.nuisance.append(nuisance)
+        if phase_hz is not None:
+            sp.phase_hz = phase_hz
+    return cv_compare(cv_losses(prep, s0, k_folds), cv_losses(prep, s1, k_folds))
+
+
 def _evaluate(prep: Prepared, c: dict[str, Any], loss_cur: np.ndarray, cfg: LoopConfig) -> None:
     c["loss"] = cv_losses(prep, c["fit"].spec, cfg.k_folds)
     c["cv_gain_pct"], c["cv_z"] = cv_compare(loss_cur, c["loss"])
@@ -800,11 +812,7 @@ def run_loop(
                 why = _replaces_inertia(cur, c["fit"])
             if why is None and c["kind"] == "time_periodic" and c["motion_share"] >= 0.02:
                 # the motion has a line here: must still predict with a flexible velocity function in both models
-                s0 = cur.spec.copy()
-                s0.nuisance.append("velocity_function")
-                s1 = c["fit"].spec.copy()
-                s1.nuisance.append("velocity_function")
-                g, z = cv_compare(cv_losses(prep, s0, cfg.k_folds), cv_losses(prep, s1, cfg.k_folds))
+                g, z = _gain_with_nuisance(prep, cur.spec, c["fit"].spec, "velocity_function", cfg.k_folds)
                 if not (z >= zc and g > 0):
                     why = (f"the motion has a line at this frequency ({100 * c['motion_share']:.0f} % of the velocity signal) "
                            f"and with a flexible velocity function in the model the line no longer predicts (gain {g:.2f} %, "
@@ -820,13 +828,7 @@ def run_loop(
                            "a function of the motion's phase")
             if why is None and phase_hz is not None and c["kind"] in PHASE_GUARDED:
                 # a periodic motion: must still predict with any smooth function of its phase in both models
-                s0 = cur.spec.copy()
-                s0.nuisance.append("phase_function")
-                s0.phase_hz = phase_hz
-                s1 = c["fit"].spec.copy()
-                s1.nuisance.append("phase_function")
-                s1.phase_hz = phase_hz
-                g, z = cv_compare(cv_losses(prep, s0, cfg.k_folds), cv_losses(prep, s1, cfg.k_folds))
+                g, z = _gain_with_nuisance(prep, cur.spec, c["fit"].spec, "phase_function", cfg.k_folds, phase_hz=phase_hz)
                 if not (z >= zc and g > 0):
                     why = (f"the motion is periodic ({PHASE_HARMONICS} harmonics of {phase_hz:.4g} Hz explain "
                            f"{100 * phase_share:.1f} % of the velocity) and with those harmonics in the model the term no "
