@@ -32,6 +32,10 @@ def add_subparser(subparsers: argparse._SubParsersAction) -> None:
                    help="stiffness of the drive between the logged position and the load [N m/rad at the axis; N/m with "
                         "--linear], from the drive's design: the report then gives the backlash gap (the fitted width is "
                         "the motion lost at a reversal, gap + half the gear's wind-up) and the plant file receives the gap")
+    p.add_argument("--drive-periods", metavar="P,...",
+                   help="known periods of the drive [rad; m with --linear] — a motor or worm revolution, a screw lead "
+                        "(EMPS: 0.0025): a position line at one of them is named even when the motion it causes is under "
+                        "10 position quanta, which the record alone cannot tell from the measurement chain's structure")
     p.set_defaults(func=run)
 
     g = subparsers.add_parser(
@@ -48,14 +52,37 @@ def add_subparser(subparsers: argparse._SubParsersAction) -> None:
     g.set_defaults(func=run_generate)
 
 
+def parse_periods(text: str) -> tuple[float, ...]:
+    """``--drive-periods`` → periods [rad or m]; one-line error naming the option and the bad item.
+
+    Raises
+    ------
+    ValueError
+        An item that is not a positive finite number.
+    """
+    out = []
+    for item in text.split(","):
+        try:
+            v = float(item)
+        except ValueError:
+            v = float("nan")
+        if not (v > 0 and v != float("inf")):
+            raise ValueError(f"--drive-periods: expected comma-separated positive periods [rad, or m with --linear], "
+                             f"got {item.strip()!r}")
+        out.append(v)
+    return tuple(out)
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``calibrate``; prints a short summary; returns 0."""
     from plant.calibration.io import parse_columns
+    from plant.calibration.loop import LoopConfig
     from plant.calibration.report import calibrate
 
     rep = calibrate(
         args.record, args.out, validate_path=args.validate, columns=parse_columns(args.columns),
         linear=args.linear, plots=not args.no_plots, axis=args.axis, gear_stiffness=args.gear_stiffness,
+        config=LoopConfig(drive_periods=parse_periods(args.drive_periods)) if args.drive_periods else None,
     )
     b, f = rep["baseline"], rep["final"]
     print(f"baseline: rms {b['rms']:.4g}, relative error {b['relative_error_pct']:.3f} %")

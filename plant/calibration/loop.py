@@ -37,7 +37,8 @@ Algorithm
    error along it); a time-periodic candidate within one frequency bin (``1/T``, the record's
    Rayleigh resolution) of one of those harmonics is refused outright. Transitions (pre-sliding
    displacement, backlash width) under :data:`MIN_TRANSITION_COUNTS` position quanta are not
-   resolved and not added. A candidate whose
+   resolved and not added, nor are time or position lines whose amplitude, as the inertial torque
+   of a motion, is a displacement under that many quanta (:func:`_line_resolved`). A candidate whose
    fit drives a positive inertia to its bound 0 stands in for the inertia and is refused
    (:func:`_replaces_inertia`).
 4. **Out-of-library structure**: a winning out-of-library description is kept in the working model
@@ -95,6 +96,11 @@ class LoopConfig:
     n_peaks: int = 3
     unexplained_min_share_pct: float = 3.0
     kinds: tuple[str, ...] = KINDS
+    #: known periods of the drive [rad, or m for a linear record] — a motor or worm revolution, a
+    #: screw lead — declared by the user: a position line within one spectral bin of one of them
+    #: is exempt from the line-resolution rule (:func:`_line_resolved`); the record alone cannot
+    #: tell a line of a few quanta from the measurement chain's structure, the drive's design can
+    drive_periods: tuple[float, ...] = ()
 
 
 @dataclasses.dataclass
@@ -282,6 +288,67 @@ def _resolved(fit: FitResult, resolution: float = 0.0) -> str | None:
     if fit.spec.backlash_width is not None and fit.spec.backlash_width < MIN_TRANSITION_COUNTS * resolution:
         return (f"backlash width {fit.spec.backlash_width:.3g} is below {MIN_TRANSITION_COUNTS:g} position quanta "
                 f"({resolution:.3g}): not resolved")
+    return None
+
+
+def _line_resolved(fit: FitResult, kind: str, slot: int, resolution: float, speed_typ: float,
+                   drive_periods: tuple[float, ...] = (), span: float = 0.0) -> str | None:
+    """None if a time or position line moves the axis by at least :data:`MIN_TRANSITION_COUNTS`
+    position quanta, else why the record cannot resolve it.
+
+    A torque line of amplitude ``A`` at angular frequency ``ω`` is, if it were the inertial torque
+    of a motion the record does not show, a displacement ``x = A / (J·ω²)``. The position is known
+    to one quantum and the velocity loop acts on the same quantised counts, so a line whose ``x``
+    is within a few quanta cannot be told from the measurement chain's own structure (the loop's
+    reaction to its quantised feedback, the encoder's count patterns) — the same resolution limit,
+    and the same constant, as for reversal transitions (:func:`_resolved`). For a position line the
+    frequency is taken at the record's typical speed: ``ω = 2π·speed_typ/period``, ``speed_typ``
+    the median moving speed. Found in session 19 (docs/calibration.md): with the time axis
+    corrected, lines with ``x`` ≈ 0.007–3.6 quanta were named on 10 development records that hide
+    no line, while every hidden line of the development seeds has ``x`` ≥ 250 quanta.
+
+    Parameters
+    ----------
+    fit : FitResult
+        The candidate's fit (its ``inertia`` coefficient is ``J`` [kg·m² or kg]).
+    kind : str
+        ``"time_periodic"`` or ``"position_periodic"``; other kinds return None.
+    slot : int
+        The line's index in ``time_frequencies`` / ``position_periods``.
+    resolution : float
+        One position quantum [rad or m].
+    speed_typ : float
+        Typical moving speed [rad/s or m/s].
+    drive_periods : tuple of float
+        Declared periods of the drive [rad or m] (:attr:`LoopConfig.drive_periods`): a position line
+        within one spectral bin of one (``|p − P| < p²/span``, one cycle over the travel) is exempt.
+    span : float
+        Travel of the moving samples [rad or m], for that bin.
+    """
+    if kind not in ("time_periodic", "position_periodic") or resolution <= 0 or "inertia" not in fit.names:
+        return None
+    if kind == "position_periodic" and span > 0:
+        p = fit.spec.position_periods[slot]
+        if any(abs(p - pd) < p * p / span for pd in drive_periods):
+            return None
+    j = fit.param("inertia")
+    if not j > 0:
+        return None
+    if kind == "time_periodic":
+        a, b = fit.param(f"time{slot}_sin"), fit.param(f"time{slot}_cos")
+        w = 2.0 * math.pi * fit.spec.time_frequencies[slot]
+        at = f"{w / (2.0 * math.pi):.4g} Hz"
+    else:
+        a, b = fit.param(f"pos{slot}_sin"), fit.param(f"pos{slot}_cos")
+        w = 2.0 * math.pi * speed_typ / fit.spec.position_periods[slot]
+        at = f"{w / (2.0 * math.pi):.4g} Hz at the typical speed {speed_typ:.3g}"
+    if not w > 0:
+        return None
+    x = math.hypot(a, b) / (j * w * w)
+    if x < MIN_TRANSITION_COUNTS * resolution:
+        return (f"the line's amplitude {math.hypot(a, b):.3g} at {at} is the inertial torque of a motion of "
+                f"{x / resolution:.2g} position quanta (A/(J·ω²), J = {j:.4g}), below {MIN_TRANSITION_COUNTS:g}: the record "
+                "cannot tell it from the measurement chain's own structure (quantised feedback in the loop)")
     return None
 
 
@@ -675,15 +742,33 @@ def time_shift_diagnostic(prep: Prepared, fit: FitResult) -> dict[str, float]:
 
 def _unexplained(prep: Prepared, fit: FitResult, cfg: LoopConfig, linear: bool, ool: list[dict[str, Any]]) -> list[dict[str, Any]]:
     out = [dict(x) for x in ool]
+    j = fit.param("inertia") if "inertia" in fit.names else 0.0
+    mov = res.moving_mask(prep.dq_dec)
+    speed_typ = float(np.median(np.abs(prep.dq_dec[mov]))) if mov.any() else 0.0
+    q = prep.position_resolution
+
+    def peak_note(share: float, var: float, w: float) -> str:
+        # the peak's amplitude as the inertial torque of a motion: x = A/(J·ω²) (see _line_resolved)
+        if not (j > 0 and q > 0 and w > 0):
+            return "a spectral peak no library effect predicts on held-out blocks"
+        x = math.sqrt(2.0 * share * var) / (j * w * w) / q
+        if x < MIN_TRANSITION_COUNTS:
+            return (f"a spectral peak whose amplitude is the inertial torque of a motion of {x:.2g} position quanta "
+                    f"(< {MIN_TRANSITION_COUNTS:g}): as far as this record can tell, structure of the measurement chain "
+                    "(the velocity loop acting on quantised counts), not a torque on the axis")
+        return "a spectral peak no library effect predicts on held-out blocks"
+
     ps = res.position_spectrum(prep.q_dec, prep.dq_dec, fit.residual)
+    var_mov = float(np.var(fit.residual[mov])) if mov.any() else float(np.var(fit.residual))
     for pk in res.find_peaks(ps, n_peaks=3, min_share=cfg.unexplained_min_share_pct / 100, fap_max=1e-3):
         out.append({"domain": "position", "frequency": pk["frequency"], "share_pct": 100 * pk["share"],
                     "unit": f"cycles/{'m' if linear else 'rad'}",
-                    "note": "a spectral peak no library effect predicts on held-out blocks"})
+                    "note": peak_note(pk["share"], var_mov, 2.0 * math.pi * pk["frequency"] * speed_typ)})
     ts = res.time_spectrum(prep.t_dec, fit.residual)
+    var_all = float(np.var(fit.residual))
     for pk in res.find_peaks(ts, n_peaks=3, min_share=cfg.unexplained_min_share_pct / 100, fap_max=1e-3):
         item = {"domain": "time", "frequency": pk["frequency"], "share_pct": 100 * pk["share"], "unit": "Hz",
-                "note": "a spectral peak no library effect predicts on held-out blocks"}
+                "note": peak_note(pk["share"], var_all, 2.0 * math.pi * pk["frequency"])}
         ms = motion_share(prep, pk["frequency"])
         if ms >= 0.02:
             item["note"] = (f"coincides with a line of the motion itself ({100 * ms:.0f} % of the velocity signal's variance): "
@@ -772,6 +857,7 @@ def run_loop(
     span = float(np.ptp(prep.q_dec[mov])) if mov.any() else float(np.ptp(prep.q_dec))
     vmax = float(np.percentile(np.abs(prep.dq), 99))
     n_rev = res.count_reversals(prep.t_dec, prep.dq_dec)
+    speed_typ = float(np.median(np.abs(prep.dq_dec[mov]))) if mov.any() else 0.0
     undecided: dict[str, dict[str, Any]] = {}
     phase_hz, phase_share = periodic_motion_hz(prep)
     t_span = float(prep.t[-1] - prep.t[0])
@@ -807,7 +893,8 @@ def run_loop(
                     undecided[c["kind"]] = {"kind": c["kind"], "step": step, "cv_gain_pct": c["cv_gain_pct"], "cv_z": c["cv_z"],
                                             "n_reversals": n_rev, "min_reversals": k_min}
             elif c["kind"] in EFFECT_KINDS:
-                why = _resolved(c["fit"], prep.position_resolution)
+                why = _resolved(c["fit"], prep.position_resolution) or _line_resolved(
+                    c["fit"], c["kind"], c["slot"], prep.position_resolution, speed_typ, cfg.drive_periods, span)
             if why is None:
                 why = _replaces_inertia(cur, c["fit"])
             if why is None and c["kind"] == "time_periodic" and c["motion_share"] >= 0.02:

@@ -86,7 +86,9 @@ SIGNIFICANCE_TEXT = (
     "listed as its competitors. On a periodic motion (3 harmonics of one fundamental explain >= 95 % of the velocity) "
     "gravity, position- and time-periodic candidates must also predict with those harmonics in both models, and a time "
     "line within one frequency bin (1/T) of one of them is refused (the phase guard). Transitions under 10 position "
-    "quanta are not resolved and not added. Out-of-library "
+    "quanta are not resolved and not added, nor are time or position lines whose amplitude, as the inertial torque "
+    "of a motion (A/(J w^2)), moves the axis by under 10 quanta, unless a position line lies at a declared period of "
+    "the drive (--drive-periods). Out-of-library "
     "descriptions (friction drift, delay) compete as well and win only when significantly better than the best "
     "library candidate; a winner is reported in 'unexplained', never written to the plant file."
 )
@@ -295,6 +297,7 @@ def calibrate(
         "stribeck": {k: (float(v) if isinstance(v, (np.floating, float)) else v) for k, v in result.stribeck.items()},
         "rejected": result.rejected,
         "undecided": result.undecided,
+        "drive_periods": list(cfg.drive_periods),
         "conclusion": (
             f"{len(effects)} effect(s) added: " + ", ".join(e["kind"] for e in effects)
             if effects else "no significant improvement: no effect added"
