@@ -87,6 +87,7 @@ def test_emps_loop_finds_documented_effects(emps_report):
     for png in ("residual_vs_velocity.png", "residual_vs_position.png", "residual_spectra.png", "before_after.png"):
         assert (out / png).stat().st_size > 1000
     assert (out / "report.md").read_text().startswith("# Calibration report")
+    assert rep["drive_periods"] == [2.5e-3] and "Declared periods of the drive" in (out / "report.md").read_text()
 
 
 def test_emps_closed_loop_reported(emps_report):

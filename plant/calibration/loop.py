@@ -291,6 +291,13 @@ def _resolved(fit: FitResult, resolution: float = 0.0) -> str | None:
     return None
 
 
+def typical_speed(prep: Prepared) -> float:
+    """The record's typical moving speed [rad/s or m/s]: the median ``|dq|`` of the decimated moving
+    samples (:func:`plant.calibration.residuals.moving_mask`); 0 if nothing moves."""
+    mov = res.moving_mask(prep.dq_dec)
+    return float(np.median(np.abs(prep.dq_dec[mov]))) if mov.any() else 0.0
+
+
 def _line_resolved(fit: FitResult, kind: str, slot: int, resolution: float, speed_typ: float,
                    drive_periods: tuple[float, ...] = (), span: float = 0.0) -> str | None:
     """None if a time or position line moves the axis by at least :data:`MIN_TRANSITION_COUNTS`
@@ -302,8 +309,8 @@ def _line_resolved(fit: FitResult, kind: str, slot: int, resolution: float, spee
     is within a few quanta cannot be told from the measurement chain's own structure (the loop's
     reaction to its quantised feedback, the encoder's count patterns) — the same resolution limit,
     and the same constant, as for reversal transitions (:func:`_resolved`). For a position line the
-    frequency is taken at the record's typical speed: ``ω = 2π·speed_typ/period``, ``speed_typ``
-    the median moving speed. Found in session 19 (docs/calibration.md): with the time axis
+    frequency is taken at the record's typical speed: ``ω = 2π·speed_typ/period``
+    (:func:`typical_speed`). Found in session 19 (docs/calibration.md): with the time axis
     corrected, lines with ``x`` ≈ 0.007–3.6 quanta were named on 10 development records that hide
     no line, while every hidden line of the development seeds has ``x`` ≥ 250 quanta.
 
@@ -744,7 +751,7 @@ def _unexplained(prep: Prepared, fit: FitResult, cfg: LoopConfig, linear: bool, 
     out = [dict(x) for x in ool]
     j = fit.param("inertia") if "inertia" in fit.names else 0.0
     mov = res.moving_mask(prep.dq_dec)
-    speed_typ = float(np.median(np.abs(prep.dq_dec[mov]))) if mov.any() else 0.0
+    speed_typ = typical_speed(prep)
     q = prep.position_resolution
 
     def peak_note(share: float, var: float, w: float) -> str:
@@ -857,7 +864,7 @@ def run_loop(
     span = float(np.ptp(prep.q_dec[mov])) if mov.any() else float(np.ptp(prep.q_dec))
     vmax = float(np.percentile(np.abs(prep.dq), 99))
     n_rev = res.count_reversals(prep.t_dec, prep.dq_dec)
-    speed_typ = float(np.median(np.abs(prep.dq_dec[mov]))) if mov.any() else 0.0
+    speed_typ = typical_speed(prep)
     undecided: dict[str, dict[str, Any]] = {}
     phase_hz, phase_share = periodic_motion_hz(prep)
     t_span = float(prep.t[-1] - prep.t[0])

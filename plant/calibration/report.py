@@ -402,7 +402,11 @@ def _markdown(r: dict[str, Any]) -> str:
     if r.get("undecided"):
         L += ["", "## Not decided by this record", ""]
         L += [f"- {x['kind']}: {x['note']}." for x in r["undecided"]]
-    L += ["", "## Significance rule", "", r["significance"], "", "## Candidates rejected", ""]
+    L += ["", "## Significance rule", "", r["significance"]]
+    if r.get("drive_periods"):
+        L += ["", "Declared periods of the drive (--drive-periods; exempt from the line-resolution limit): "
+              + ", ".join(f"{p:.6g}" for p in r["drive_periods"]) + "."]
+    L += ["", "## Candidates rejected", ""]
     for x in r["rejected"]:
         L.append(f"- step {x['step']}: {x['kind']} — {x['reason']}")
     L += ["", "## Uncertainty caveat", "", r["uncertainty"]["note"] + ".", ""]
