@@ -123,10 +123,13 @@ def _decimate(x: np.ndarray, r: int) -> np.ndarray:
     b, a = signal.cheby1(8, 0.05, 0.8 / r)
     b = b * (a.sum() / b.sum())  # unit DC gain
     xf = signal.filtfilt(b, a, x, axis=0, padtype="odd", padlen=3 * (max(len(a), len(b)) - 1))
-    nd = xf.shape[0]
-    nout = math.ceil(nd / r)
-    nbeg = r - (r * nout - nd)  # Matlab: y = odata(nbeg:r:nd), 1-based
-    return xf[nbeg - 1 :: r]
+    return xf[_decimation_start(xf.shape[0], r) :: r]
+
+
+def _decimation_start(nd: int, r: int) -> int:
+    """0-based index of the first kept row of ``nd`` rows decimated by ``r``: every r-th row ending on
+    the last one (Matlab: ``y = odata(nbeg:r:nd)``, 1-based, ``nbeg = r − (r·ceil(nd/r) − nd)``)."""
+    return r - (r * math.ceil(nd / r) - nd) - 1
 
 
 def _decimate_times(t: np.ndarray, r: int) -> np.ndarray:
@@ -135,9 +138,7 @@ def _decimate_times(t: np.ndarray, r: int) -> np.ndarray:
     t = np.asarray(t, float)
     if r <= 1:
         return t
-    nd = t.shape[0]
-    nout = math.ceil(nd / r)
-    return t[r - (r * nout - nd) - 1 :: r]
+    return t[_decimation_start(t.shape[0], r) :: r]
 
 
 def prepare(

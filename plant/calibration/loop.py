@@ -298,6 +298,24 @@ def typical_speed(prep: Prepared) -> float:
     return float(np.median(np.abs(prep.dq_dec[mov]))) if mov.any() else 0.0
 
 
+def line_motion_quanta(amplitude: float, inertia: float, w: float, resolution: float) -> float:
+    """A torque line's amplitude as the inertial torque of a motion, in position quanta:
+    ``A / (J·ω²) / q`` (see :func:`_line_resolved`).
+
+    Parameters
+    ----------
+    amplitude : float
+        Line amplitude ``A`` [N·m or N].
+    inertia : float
+        ``J`` [kg·m² or kg], > 0.
+    w : float
+        Angular frequency ``ω`` [rad/s], > 0.
+    resolution : float
+        One position quantum ``q`` [rad or m], > 0.
+    """
+    return amplitude / (inertia * w * w) / resolution
+
+
 def _line_resolved(fit: FitResult, kind: str, slot: int, resolution: float, speed_typ: float,
                    drive_periods: tuple[float, ...] = (), span: float = 0.0) -> str | None:
     """None if a time or position line moves the axis by at least :data:`MIN_TRANSITION_COUNTS`
@@ -351,10 +369,10 @@ def _line_resolved(fit: FitResult, kind: str, slot: int, resolution: float, spee
         at = f"{w / (2.0 * math.pi):.4g} Hz at the typical speed {speed_typ:.3g}"
     if not w > 0:
         return None
-    x = math.hypot(a, b) / (j * w * w)
-    if x < MIN_TRANSITION_COUNTS * resolution:
+    n_q = line_motion_quanta(math.hypot(a, b), j, w, resolution)
+    if n_q < MIN_TRANSITION_COUNTS:
         return (f"the line's amplitude {math.hypot(a, b):.3g} at {at} is the inertial torque of a motion of "
-                f"{x / resolution:.2g} position quanta (A/(J·ω²), J = {j:.4g}), below {MIN_TRANSITION_COUNTS:g}: the record "
+                f"{n_q:.2g} position quanta (A/(J·ω²), J = {j:.4g}), below {MIN_TRANSITION_COUNTS:g}: the record "
                 "cannot tell it from the measurement chain's own structure (quantised feedback in the loop)")
     return None
 
@@ -755,10 +773,10 @@ def _unexplained(prep: Prepared, fit: FitResult, cfg: LoopConfig, linear: bool, 
     q = prep.position_resolution
 
     def peak_note(share: float, var: float, w: float) -> str:
-        # the peak's amplitude as the inertial torque of a motion: x = A/(J·ω²) (see _line_resolved)
+        # the peak's amplitude (one sinusoid holding ``share`` of ``var``) as a motion, in quanta
         if not (j > 0 and q > 0 and w > 0):
             return "a spectral peak no library effect predicts on held-out blocks"
-        x = math.sqrt(2.0 * share * var) / (j * w * w) / q
+        x = line_motion_quanta(math.sqrt(2.0 * share * var), j, w, q)
         if x < MIN_TRANSITION_COUNTS:
             return (f"a spectral peak whose amplitude is the inertial torque of a motion of {x:.2g} position quanta "
                     f"(< {MIN_TRANSITION_COUNTS:g}): as far as this record can tell, structure of the measurement chain "
