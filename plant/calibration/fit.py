@@ -256,6 +256,13 @@ class ModelSpec:
         ``gravity_imbalance`` term (period 2π rad).
     time_frequencies : list of float
         Frequencies [Hz] of ``time_periodic`` terms.
+    gear_stiffness : float or None
+        The drive's stiffness between the logged position and the load, *declared* by the engineer
+        (``--gear-stiffness``) [N·m/rad or N/m]; not fitted.
+    spring_coulomb : float or None
+        The Coulomb level [N·m or N] that sets the declared spring's swing ``2·spring_coulomb /
+        gear_stiffness`` (the baseline's, :func:`plant.calibration.loop.fit_baseline`). With both
+        set (and no pre-sliding), friction acts through the spring: :func:`geared_coulomb`.
     """
 
     stribeck_vs: float | None = None
@@ -276,6 +283,13 @@ class ModelSpec:
     #   own error on a periodic trajectory, loop.periodic_motion_hz)
     #: fundamental [Hz] of a periodic motion, for the ``"phase_function"`` nuisance
     phase_hz: float | None = None
+    gear_stiffness: float | None = None
+    spring_coulomb: float | None = None
+
+    @property
+    def geared(self) -> bool:
+        """Friction acts through the declared gear spring (:func:`geared_coulomb`)."""
+        return self.gear_stiffness is not None and self.spring_coulomb is not None and self.presliding_k is None
 
     def copy(self) -> "ModelSpec":
         return dataclasses.replace(
@@ -363,6 +377,39 @@ def play_operator(q: np.ndarray, width: float) -> np.ndarray:
     return _play_kernel(np.ascontiguousarray(q, dtype=float), 0.5 * float(width))
 
 
+def geared_coulomb(q: np.ndarray, gap: float, swing: float) -> tuple[np.ndarray, np.ndarray]:
+    """Friction seen through a compliant gear, with an optional gap in it: (load position, Coulomb column).
+
+    The position ``q`` is logged on the motor side of a gear spring of stiffness ``K``; the load
+    behind it carries Coulomb friction ``Fc`` and sticks until the spring transmits ``Fc``. After a
+    reversal the spring first unwinds (``Fc/K`` of motor travel), the gap is crossed (``gap``), and
+    the spring winds up the other way (``Fc/K``), so the transmitted friction torque swings from
+    ``−Fc`` to ``+Fc`` over ``gap + 2Fc/K``. The load position is the play output
+    ``q_l = play(q, gap + 2·swing)`` with ``swing = Fc/K``; the column is the spring's torque over
+    ``Fc``, ``s = dz(q − q_l, gap/2) / swing`` in [−1, 1], ``dz`` the dead zone. ``gap = 0`` is the
+    elasto-plastic (Prandtl stop) operator. The load's inertia is not modelled (the motion is
+    slow at a reversal). Docs: docs/calibration.md, "Session 20".
+
+    Parameters
+    ----------
+    q : ndarray, shape (N,)
+        Motor-side position [rad or m].
+    gap : float
+        Full width of the gap [rad or m], ≥ 0.
+    swing : float
+        ``Fc/K`` [rad or m], > 0.
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        Load position [rad or m] and the Coulomb column (dimensionless), shape (N,) each.
+    """
+    h = 0.5 * float(gap)
+    ql = play_operator(q, 2.0 * (h + float(swing)))
+    delta = np.asarray(q, dtype=float) - ql
+    return ql, np.where(delta > h, delta - h, np.where(delta < -h, delta + h, 0.0)) / float(swing)
+
+
 def stick_ramp(c: np.ndarray, rest: np.ndarray) -> np.ndarray:
     """The Coulomb column ``c = sign(w)`` with each run of rest samples replaced by a straight line
     from the sliding value before the run to the one after it.
@@ -393,14 +440,20 @@ def design_full(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None, t=No
     ddq = prep.ddq if ddq is None else ddq
     t = prep.t if t is None else t
     dt = prep.dt_s
-    if spec.backlash_width is not None:
+    geared = None
+    if spec.geared:
+        ql, geared = geared_coulomb(q, spec.backlash_width or 0.0, spec.spring_coulomb / spec.gear_stiffness)
+        w = np.gradient(ql, dt)
+    elif spec.backlash_width is not None:
         ql = play_operator(q, spec.backlash_width)
         w = np.gradient(ql, dt)
     else:
         w = dq
     names: list[str] = ["inertia"]
     cols: list[np.ndarray] = [ddq]
-    if spec.presliding_k is not None:
+    if geared is not None:
+        c = geared
+    elif spec.presliding_k is not None:
         c = presliding_state(w, spec.presliding_k, dt)
     else:
         use_ramp = prep.coulomb is not None and spec.backlash_width is None and dq is prep.dq

@@ -101,6 +101,10 @@ class LoopConfig:
     #: is exempt from the line-resolution rule (:func:`_line_resolved`); the record alone cannot
     #: tell a line of a few quanta from the measurement chain's structure, the drive's design can
     drive_periods: tuple[float, ...] = ()
+    #: the drive's stiffness between the logged position and the load [N·m/rad, or N/m], declared
+    #: by the user from the drive's design (``--gear-stiffness``): a reversal effect must then also
+    #: predict better than the current model with this spring in it (:func:`_beats_gear_spring`)
+    gear_stiffness: float | None = None
 
 
 @dataclasses.dataclass
@@ -375,6 +379,42 @@ def _line_resolved(fit: FitResult, kind: str, slot: int, resolution: float, spee
                 f"{n_q:.2g} position quanta (A/(J·ω²), J = {j:.4g}), below {MIN_TRANSITION_COUNTS:g}: the record "
                 "cannot tell it from the measurement chain's own structure (quantised feedback in the loop)")
     return None
+
+
+def _beats_gear_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: LoopConfig) -> str | None:
+    """None if the reversal candidate ``c`` predicts held-out blocks better than the current model
+    with the declared gear spring in it, else why not.
+
+    A motor-side record of a compliant drive shows the spring's wind-up at every reversal: the
+    load sticks until the spring carries ``Fc`` (:func:`plant.calibration.fit.geared_coulomb`), and
+    without that spring in the model the nearest reversal kind (pre-sliding, backlash) takes it.
+    With the stiffness declared the spring is known, so a reversal effect must describe more than
+    it: its cross-validated gain over the current model *with the spring* must be positive. A point
+    estimate, not a significance test: the candidate has already passed the rule against the
+    current model, and a gain at a few reversals could never be significant (:func:`min_events`).
+    ``Fc`` is the current fit's Coulomb level, refitted twice with the spring (a fixed point). Not
+    applied when the spring's swing ``2Fc/K`` spans fewer than :data:`MIN_TRANSITION_COUNTS`
+    quanta (it is then a step, as the plain Coulomb column is). docs/calibration.md, "Session 20".
+    """
+    k = cfg.gear_stiffness
+    fc = _coulomb(cur)
+    swing = 2.0 * fc / k if (k and fc > 0) else 0.0
+    if swing < MIN_TRANSITION_COUNTS * prep.position_resolution:
+        return None
+    for _ in range(2):   # the Coulomb level that sets the swing, refitted with the spring (fixed point)
+        spring = dataclasses.replace(cur.spec.copy(), gear_stiffness=k, spring_coulomb=fc)
+        fc = _coulomb(fit_model(prep, spring, refine=False))
+        if not fc > 0:
+            return None
+    swing = 2.0 * fc / k
+    spring = dataclasses.replace(cur.spec.copy(), gear_stiffness=k, spring_coulomb=fc)
+    g, z = cv_compare(cv_losses(prep, spring, cfg.k_folds), c["loss"])
+    c["gain_over_spring_pct"] = g
+    if g > 0:
+        return None
+    return (f"the declared gear spring (K = {k:.4g}, swing 2Fc/K = {swing:.3g}) in the current model predicts held-out "
+            f"blocks as well: the candidate's gain over it is {g:.2f} % (z = {z:.1f}) — the reversal transition is the "
+            "gear's wind-up")
 
 
 def _replaces_inertia(cur: FitResult, new: FitResult) -> str | None:
@@ -922,6 +962,8 @@ def run_loop(
                     c["fit"], c["kind"], c["slot"], prep.position_resolution, speed_typ, cfg.drive_periods, span)
             if why is None:
                 why = _replaces_inertia(cur, c["fit"])
+            if why is None and c["group"] == "reversal" and cfg.gear_stiffness is not None:
+                why = _beats_gear_spring(prep, cur, c, cfg)
             if why is None and c["kind"] == "time_periodic" and c["motion_share"] >= 0.02:
                 # the motion has a line here: must still predict with a flexible velocity function in both models
                 g, z = _gain_with_nuisance(prep, cur.spec, c["fit"].spec, "velocity_function", cfg.k_folds)
@@ -996,7 +1038,9 @@ def run_loop(
         ev = (f"{chosen['evidence'][0].upper()}{chosen['evidence'][1:]}. Predicts held-out time blocks better: the "
               f"cross-validated mean squared error falls by {chosen['cv_gain_pct']:.1f} % (z = {chosen['cv_z']:.1f}); it explains "
               f"{chosen['explained_pct']:.1f} % of the residual variance."
-              + (f" Won against: {won}." if won else ""))
+              + (f" Won against: {won}." if won else "")
+              + (f" It also predicts better than the declared gear spring alone (gain {chosen['gain_over_spring_pct']:.1f} %)."
+                 if "gain_over_spring_pct" in chosen else ""))
         acc = AcceptedEffect(kind=chosen["kind"], slot=chosen["slot"], rms_after=f.rms, variance_explained_pct=chosen["explained_pct"],
                              delta_bic=chosen["delta_bic"], evidence=ev, val_rms_after=chosen.get("val_rms"),
                              cv_gain_pct=chosen["cv_gain_pct"], cv_z=chosen["cv_z"], competitors=comps)

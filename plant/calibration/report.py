@@ -15,6 +15,7 @@ Parameter names carry units; for linear records (``--linear``, EMPS) they follow
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -238,6 +239,7 @@ def calibrate(
     cfg = config or LoopConfig()
     if gear_stiffness is not None:
         check_stiffness(gear_stiffness, "--gear-stiffness")   # before anything runs or is written
+        cfg = dataclasses.replace(cfg, gear_stiffness=gear_stiffness)
     rec = load_record(record_path, columns=columns, linear=linear, axis=axis)
     linear = rec.linear
     prep = prepare(rec)
