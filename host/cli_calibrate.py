@@ -30,8 +30,9 @@ def add_subparser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--gear-stiffness", type=float, metavar="K",
                    help="stiffness of the drive between the logged position and the load [N m/rad at the axis; N/m with "
-                        "--linear], from the drive's design: the report then gives the backlash gap (the fitted width is "
-                        "the motion lost at a reversal, gap + half the gear's wind-up) and the plant file receives the gap")
+                        "--linear], from the drive's design: a pre-sliding or backlash effect must then also predict better than "
+                        "the gear spring alone, the report gives the backlash gap (the fitted width is the motion lost at a "
+                        "reversal, gap + half the gear's wind-up) and the plant file receives the gap")
     p.add_argument("--drive-periods", metavar="P,...",
                    help="known periods of the drive [rad; m with --linear] — a motor or worm revolution, a screw lead "
                         "(EMPS: 0.0025): a position line at one of them is named even when the motion it causes is under "

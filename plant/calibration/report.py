@@ -224,7 +224,9 @@ def calibrate(
         Axis of the plant parameter file that receives the calibrated model.
     gear_stiffness : float, optional
         Stiffness of the drive between the logged position and the load [N·m/rad; N/m for linear
-        records], from the drive's design. The fitted backlash width is the motion lost at a
+        records], from the drive's design. A pre-sliding or backlash effect must then also
+        predict better than the current model with this spring in it
+        (:func:`plant.calibration.loop._beats_gear_spring`). The fitted backlash width is the motion lost at a
         reversal (the gap plus half the gear's wind-up, :func:`plant.calibration.loop.backlash_gap`);
         with the stiffness the report also gives the gap, and the plant file — whose gear adds
         its own wind-up — receives the gap instead of the width.
