@@ -76,8 +76,9 @@ def test_declared_spring_refuses_a_compliant_drives_wind_up(tmp_path):
     assert not named & {"presliding", "backlash"}
     reasons = [x["reason"] for x in rep["rejected"] if x["kind"] in ("presliding", "backlash")]
     assert any("declared gear spring" in why and "wind-up" in why for why in reasons)
+    assert rep["gear_stiffness"] == k
     md = (tmp_path / "out" / "report.md").read_text()
-    assert "declared gear spring" in md
+    assert "Declared gear stiffness" in md and "the gear's wind-up" in md
 
 
 def test_declared_spring_keeps_a_real_gap(tmp_path):

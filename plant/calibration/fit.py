@@ -261,8 +261,8 @@ class ModelSpec:
         (``--gear-stiffness``) [N·m/rad or N/m]; not fitted.
     spring_coulomb : float or None
         The Coulomb level [N·m or N] that sets the declared spring's swing ``2·spring_coulomb /
-        gear_stiffness`` (the baseline's, :func:`plant.calibration.loop.fit_baseline`). With both
-        set (and no pre-sliding), friction acts through the spring: :func:`geared_coulomb`.
+        gear_stiffness`` (the current fit's, :func:`plant.calibration.loop._beats_gear_spring`). With
+        both set (and no pre-sliding), friction acts through the spring: :func:`geared_coulomb`.
     """
 
     stribeck_vs: float | None = None

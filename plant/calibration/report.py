@@ -302,6 +302,7 @@ def calibrate(
         "rejected": result.rejected,
         "undecided": result.undecided,
         "drive_periods": list(cfg.drive_periods),
+        "gear_stiffness": cfg.gear_stiffness,
         "conclusion": (
             f"{len(effects)} effect(s) added: " + ", ".join(e["kind"] for e in effects)
             if effects else "no significant improvement: no effect added"
@@ -410,6 +411,9 @@ def _markdown(r: dict[str, Any]) -> str:
     if r.get("drive_periods"):
         L += ["", "Declared periods of the drive (--drive-periods; exempt from the line-resolution limit): "
               + ", ".join(f"{p:.6g}" for p in r["drive_periods"]) + "."]
+    if r.get("gear_stiffness") is not None:
+        L += ["", f"Declared gear stiffness (--gear-stiffness): {r['gear_stiffness']:.6g}; a pre-sliding or backlash must also "
+              "predict better than the current model with this spring in it (docs/calibration.md, 'Session 20')."]
     L += ["", "## Candidates rejected", ""]
     for x in r["rejected"]:
         L.append(f"- step {x['step']}: {x['kind']} — {x['reason']}")
