@@ -91,3 +91,16 @@ def test_declared_spring_keeps_a_real_gap(tmp_path):
     assert "backlash" in acc
     assert "predicts better than the declared gear spring alone" in acc["backlash"].evidence
 
+
+
+def test_a_bristle_in_series_cannot_shorten_the_springs_transition(tmp_path):
+    """Fresh compliant record 4102: its pre-sliding transition (1/k) is shorter than the declared
+    spring's own swing 2Fc/K, which a bristle in series with the gear cannot produce
+    (1/k_fit = 1/k_bristle + 2Fc/K); without the stiffness it is named pre-sliding."""
+    r, path = _record(tmp_path, 4102, "compliant_mode")
+    k = r.meta["two_mass"]["stiffness_nm_rad"]
+    prep = prepare(load_record(path))
+    assert "presliding" in {a.kind for a in run_loop(prep).accepted}, "precondition: pre-sliding named without the stiffness"
+    res = run_loop(prep, cfg=LoopConfig(gear_stiffness=k))
+    assert "presliding" not in {a.kind for a in res.accepted}
+    assert any(x["kind"] == "presliding" and "cannot shorten its transition" in x["reason"] for x in res.rejected)

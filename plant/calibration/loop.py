@@ -394,12 +394,29 @@ def _beats_gear_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: L
     current model, and a gain at a few reversals could never be significant (:func:`min_events`).
     ``Fc`` is the current fit's Coulomb level, refitted twice with the spring (a fixed point). Not
     applied when the spring's swing ``2Fc/K`` spans fewer than :data:`MIN_TRANSITION_COUNTS`
-    quanta (it is then a step, as the plain Coulomb column is). docs/calibration.md, "Session 20".
+    quanta (it is then a step, as the plain Coulomb column is).
+
+    Before that, a pre-sliding candidate must leave a resolved bristle: a LuGre bristle (initial
+    slope ``2k·Fc``) in series with the spring (``K``) gives ``1/k_fit = 1/k_bristle + 2Fc/K``, so
+    ``1/k − 2Fc/K`` (``Fc`` the candidate's) must be at least :data:`MIN_TRANSITION_COUNTS`
+    quanta — the resolution rule of :func:`_resolved` applied to the bristle. A transition shorter
+    than the spring's own swing is not a bristle behind that spring. Cost: a real bristle much
+    shorter than a soft gear's swing is refused as unresolved. docs/calibration.md, "Session 20".
     """
     k = cfg.gear_stiffness
+    need = MIN_TRANSITION_COUNTS * prep.position_resolution
+    pk = c["fit"].spec.presliding_k
+    fc_c = _coulomb(c["fit"])
+    if pk is not None and k and fc_c > 0:
+        # a bristle in series with the spring: 1/k_fit = 1/k_bristle + 2Fc/K (initial slopes 2kFc and K)
+        bristle = 1.0 / pk - 2.0 * fc_c / k
+        if bristle < need:
+            return (f"with the declared gear spring (K = {k:.4g}) the pre-sliding transition 1/k = {1.0 / pk:.3g} leaves a "
+                    f"bristle of 1/k − 2Fc/K = {bristle:.3g}, under {MIN_TRANSITION_COUNTS:g} position quanta ({need:.3g}): "
+                    "a bristle in series with the gear cannot shorten its transition — the gear's wind-up, not pre-sliding")
     fc = _coulomb(cur)
     swing = 2.0 * fc / k if (k and fc > 0) else 0.0
-    if swing < MIN_TRANSITION_COUNTS * prep.position_resolution:
+    if swing < need:
         return None
     for _ in range(2):   # the Coulomb level that sets the swing, refitted with the spring (fixed point)
         spring = dataclasses.replace(cur.spec.copy(), gear_stiffness=k, spring_coulomb=fc)
