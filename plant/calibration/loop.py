@@ -381,7 +381,8 @@ def _line_resolved(fit: FitResult, kind: str, slot: int, resolution: float, spee
     return None
 
 
-def _beats_gear_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: LoopConfig) -> str | None:
+def _beats_gear_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: LoopConfig,
+                       cache: dict[str, Any] | None = None) -> str | None:
     """None if the reversal candidate ``c`` predicts held-out blocks better than the current model
     with the declared gear spring in it, else why not.
 
@@ -402,6 +403,9 @@ def _beats_gear_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: L
     quanta — the resolution rule of :func:`_resolved` applied to the bristle. A transition shorter
     than the spring's own swing is not a bristle behind that spring. Cost: a real bristle much
     shorter than a soft gear's swing is refused as unresolved. docs/calibration.md, "Session 20".
+
+    ``cache``: one dict per loop step (same ``cur``), so the spring model is fitted and
+    cross-validated once for all of the step's candidates.
     """
     k = cfg.gear_stiffness
     need = MIN_TRANSITION_COUNTS * prep.position_resolution
@@ -414,24 +418,35 @@ def _beats_gear_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: L
             return (f"with the declared gear spring (K = {k:.4g}) the pre-sliding transition 1/k = {1.0 / pk:.3g} leaves a "
                     f"bristle of 1/k − 2Fc/K = {bristle:.3g}, under {MIN_TRANSITION_COUNTS:g} position quanta ({need:.3g}): "
                     "a bristle in series with the gear cannot shorten its transition — the gear's wind-up, not pre-sliding")
-    fc = _coulomb(cur)
-    swing = 2.0 * fc / k if (k and fc > 0) else 0.0
-    if swing < need:
+    cache = {} if cache is None else cache
+    if "loss" not in cache:
+        cache["loss"] = _gear_spring_losses(prep, cur, cfg)
+    if cache["loss"] is None:
         return None
-    for _ in range(2):   # the Coulomb level that sets the swing, refitted with the spring (fixed point)
-        spring = dataclasses.replace(cur.spec.copy(), gear_stiffness=k, spring_coulomb=fc)
-        fc = _coulomb(fit_model(prep, spring, refine=False))
-        if not fc > 0:
-            return None
-    swing = 2.0 * fc / k
-    spring = dataclasses.replace(cur.spec.copy(), gear_stiffness=k, spring_coulomb=fc)
-    g, z = cv_compare(cv_losses(prep, spring, cfg.k_folds), c["loss"])
+    loss, swing = cache["loss"]
+    g, z = cv_compare(loss, c["loss"])
     c["gain_over_spring_pct"] = g
     if g > 0:
         return None
     return (f"the declared gear spring (K = {k:.4g}, swing 2Fc/K = {swing:.3g}) in the current model predicts held-out "
             f"blocks as well: the candidate's gain over it is {g:.2f} % (z = {z:.1f}) — the reversal transition is the "
             "gear's wind-up")
+
+
+def _gear_spring_losses(prep: Prepared, cur: FitResult, cfg: LoopConfig) -> tuple[np.ndarray, float] | None:
+    """CV prediction errors of the current model with the declared spring in it, and the spring's
+    swing ``2Fc/K``; None where the swing is under :data:`MIN_TRANSITION_COUNTS` quanta. ``Fc``
+    starts at the current fit's Coulomb level and is refitted twice with the spring."""
+    k = cfg.gear_stiffness
+    fc = _coulomb(cur)
+    if not (k and fc > 0) or 2.0 * fc / k < MIN_TRANSITION_COUNTS * prep.position_resolution:
+        return None
+    for _ in range(2):   # the Coulomb level that sets the swing, refitted with the spring (fixed point)
+        fc = _coulomb(fit_model(prep, dataclasses.replace(cur.spec.copy(), gear_stiffness=k, spring_coulomb=fc), refine=False))
+        if not fc > 0:
+            return None
+    spring = dataclasses.replace(cur.spec.copy(), gear_stiffness=k, spring_coulomb=fc)
+    return cv_losses(prep, spring, cfg.k_folds), 2.0 * fc / k
 
 
 def _replaces_inertia(cur: FitResult, new: FitResult) -> str | None:
@@ -954,6 +969,7 @@ def run_loop(
         if not cands:
             break
         loss_cur = cv_losses(prep, cur.spec, cfg.k_folds)
+        spring_cache: dict[str, Any] = {}   # the declared spring's model, once per step (_beats_gear_spring)
         for c in cands:
             _evaluate(prep, c, loss_cur, cfg)
             c["explained_pct"] = 100.0 * (cur.rss - c["fit"].rss) / cur.rss
@@ -980,7 +996,7 @@ def run_loop(
             if why is None:
                 why = _replaces_inertia(cur, c["fit"])
             if why is None and c["group"] == "reversal" and cfg.gear_stiffness is not None:
-                why = _beats_gear_spring(prep, cur, c, cfg)
+                why = _beats_gear_spring(prep, cur, c, cfg, spring_cache)
             if why is None and c["kind"] == "time_periodic" and c["motion_share"] >= 0.02:
                 # the motion has a line here: must still predict with a flexible velocity function in both models
                 g, z = _gain_with_nuisance(prep, cur.spec, c["fit"].spec, "velocity_function", cfg.k_folds)
