@@ -246,6 +246,11 @@ class ModelSpec:
         Stribeck velocity [rad/s or m/s]; None: no Stribeck term.
     asymmetric : bool
         Direction-dependent viscous and Coulomb friction.
+    coulomb_split : bool
+        Direction-dependent Coulomb friction with a symmetric viscous term (ignored when
+        ``asymmetric``). With the offset absorbed, this is the offset acting only while the axis
+        moves; used as the twin an ``asymmetric_friction`` candidate must beat
+        (:func:`plant.calibration.loop._viscous_split_predicts`), never as an effect.
     presliding_k : float or None
         LuGre ``σ0/Fc`` [1/rad or 1/m]; None: plain ``sign``.
     backlash_width : float or None
@@ -267,6 +272,7 @@ class ModelSpec:
 
     stribeck_vs: float | None = None
     asymmetric: bool = False
+    coulomb_split: bool = False
     presliding_k: float | None = None
     backlash_width: float | None = None
     position_periods: list[float] = dataclasses.field(default_factory=list)
@@ -458,13 +464,17 @@ def design_full(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None, t=No
     else:
         use_ramp = prep.coulomb is not None and spec.backlash_width is None and dq is prep.dq
         c = prep.coulomb if use_ramp else np.sign(w)
+    split = spec.asymmetric or spec.coulomb_split
     if spec.asymmetric:
         names += ["viscous_pos", "viscous_neg", "coulomb_pos", "coulomb_neg"]
         cols += [np.maximum(w, 0.0), np.minimum(w, 0.0), np.maximum(c, 0.0), np.minimum(c, 0.0)]
+    elif spec.coulomb_split:
+        names += ["viscous", "coulomb_pos", "coulomb_neg"]
+        cols += [w, np.maximum(c, 0.0), np.minimum(c, 0.0)]
     else:
         names += ["viscous", "coulomb"]
         cols += [w, c]
-    if not spec.asymmetric:
+    if not split:
         # With direction-dependent Coulomb levels the offset is not identifiable (the velocity is
         # almost never exactly zero, so max(c,0) − min(c,0) = 1 = the offset column): it is
         # absorbed, coulomb_pos = Fc + offset, coulomb_neg = Fc − offset.

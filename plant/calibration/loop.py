@@ -433,6 +433,30 @@ def _beats_gear_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: L
             "gear's wind-up")
 
 
+def _viscous_split_predicts(prep: Prepared, c: dict[str, Any], zc: float, cfg: LoopConfig) -> str | None:
+    """None if the ``asymmetric_friction`` candidate ``c`` also predicts held-out blocks better
+    than its twin with a symmetric viscous term, else why not.
+
+    With an offset in the model an asymmetric Coulomb level is that offset again while the axis
+    moves (``Fc± = Fc ± offset``, :func:`plant.calibration.fit.design`): the two differ only where
+    the Coulomb column is not ±1 — at rests and across the Coulomb ramp, where the model is least
+    trustworthy. What the record can attribute to direction-dependent friction is the split of the
+    viscous term, so the candidate must pass the acceptance rule (gain > 0, ``z ≥ zc``) against
+    the same model with the Coulomb term split and the viscous term symmetric
+    (``ModelSpec.coulomb_split``). Unlike a reversal effect, the viscous split acts on every moving
+    sample, so a real one can be significant. docs/calibration.md, "Session 21".
+    """
+    twin = dataclasses.replace(c["fit"].spec.copy(), asymmetric=False, coulomb_split=True)
+    g, z = cv_compare(cv_losses(prep, twin, cfg.k_folds), c["loss"])
+    c["gain_over_coulomb_split_pct"], c["z_over_coulomb_split"] = g, z
+    if z >= zc and g > 0:
+        return None
+    return (f"its gain comes from the split Coulomb level, which with the offset in the model is the offset acting only "
+            f"while the axis moves (it differs from it only at rests): against that twin, with the viscous friction "
+            f"symmetric, the direction-dependent viscous friction gains {g:.2f} % (z = {z:.1f}; needs > 0 and "
+            f"z ≥ {zc:.2f}) — no asymmetry the record can attribute")
+
+
 def _gear_spring_losses(prep: Prepared, cur: FitResult, cfg: LoopConfig) -> tuple[np.ndarray, float] | None:
     """CV prediction errors of the current model with the declared spring in it, and the spring's
     swing ``2Fc/K``; None where the swing is under :data:`MIN_TRANSITION_COUNTS` quanta. ``Fc``
@@ -995,6 +1019,8 @@ def run_loop(
                     c["fit"], c["kind"], c["slot"], prep.position_resolution, speed_typ, cfg.drive_periods, span)
             if why is None:
                 why = _replaces_inertia(cur, c["fit"])
+            if why is None and c["kind"] == "asymmetric_friction":
+                why = _viscous_split_predicts(prep, c, zc, cfg)
             if why is None and c["group"] == "reversal" and cfg.gear_stiffness is not None:
                 why = _beats_gear_spring(prep, cur, c, cfg, spring_cache)
             if why is None and c["kind"] == "time_periodic" and c["motion_share"] >= 0.02:
@@ -1073,7 +1099,10 @@ def run_loop(
               f"{chosen['explained_pct']:.1f} % of the residual variance."
               + (f" Won against: {won}." if won else "")
               + (f" It also predicts better than the declared gear spring alone (gain {chosen['gain_over_spring_pct']:.1f} %)."
-                 if "gain_over_spring_pct" in chosen else ""))
+                 if "gain_over_spring_pct" in chosen else "")
+              + (f" Its direction-dependent viscous friction predicts better than a symmetric one with the Coulomb level "
+                 f"split (gain {chosen['gain_over_coulomb_split_pct']:.1f} %, z = {chosen['z_over_coulomb_split']:.1f})."
+                 if "gain_over_coulomb_split_pct" in chosen else ""))
         acc = AcceptedEffect(kind=chosen["kind"], slot=chosen["slot"], rms_after=f.rms, variance_explained_pct=chosen["explained_pct"],
                              delta_bic=chosen["delta_bic"], evidence=ev, val_rms_after=chosen.get("val_rms"),
                              cv_gain_pct=chosen["cv_gain_pct"], cv_z=chosen["cv_z"], competitors=comps)

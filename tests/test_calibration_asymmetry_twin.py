@@ -1,0 +1,65 @@
+"""Asymmetric friction must be asymmetric where the record can tell (issue 7, docs/calibration.md
+"Session 21").
+
+With an offset in the model, direction-dependent Coulomb levels are the offset again while the
+axis moves: ``max(c, 0)`` and ``min(c, 0)`` span ``c`` and ``|c|``, and ``|c| = 1`` wherever the
+Coulomb column is ±1. So an ``asymmetric_friction`` candidate must also beat its twin — viscous
+friction symmetric, Coulomb split (``ModelSpec.coulomb_split``) — on held-out blocks.
+
+The twin's columns are checked against that algebra written here; the loop on records of the
+independent generator (``plant.calibration.bench_records``, which imports nothing from the fit).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from plant.calibration.bench_records import make_record
+from plant.calibration.fit import ModelSpec, design, design_full, prepare
+from plant.calibration.io import load_record
+
+
+def _prep(tmp_path, seed, kinds):
+    r = make_record(seed, kinds)
+    path = tmp_path / f"rec_{seed}.csv"
+    r.write_csv(path)
+    return r, prepare(load_record(path))
+
+
+def _in_span(A: np.ndarray, b: np.ndarray) -> float:
+    """Relative norm of the part of ``b`` outside the column space of ``A``."""
+    coef, *_ = np.linalg.lstsq(A, b, rcond=None)
+    return float(np.linalg.norm(A @ coef - b) / np.linalg.norm(b))
+
+
+def test_coulomb_split_twin_is_the_offset_while_moving(tmp_path):
+    _, prep = _prep(tmp_path, 4300, ("asymmetric_friction",))
+    base_names, Xb = design_full(prep, ModelSpec())   # full rate: the decimating filter is linear
+    twin_names, Xt = design_full(prep, ModelSpec(coulomb_split=True))
+    asym_names, Xa = design_full(prep, ModelSpec(asymmetric=True))
+    assert "offset" in base_names and "offset" not in twin_names and "offset" not in asym_names
+    assert twin_names[:4] == ["inertia", "viscous", "coulomb_pos", "coulomb_neg"]
+    w = Xb[:, base_names.index("viscous")]
+    c = Xb[:, base_names.index("coulomb")]
+    # Coulomb split = c and |c| (max(c,0) = (c + |c|)/2, min(c,0) = (c − |c|)/2)
+    A = np.column_stack([Xb[:, 0], w, c, np.abs(c)])
+    for name in ("coulomb_pos", "coulomb_neg"):
+        assert _in_span(A, Xt[:, twin_names.index(name)]) < 1e-12
+    # where the axis slides (|c| = 1) the split's |c| part is the offset column
+    sliding = np.abs(c) == 1.0
+    assert sliding.mean() > 0.5
+    np.testing.assert_array_equal(np.abs(c)[sliding], Xb[sliding, base_names.index("offset")])
+    # the asymmetric model is the twin plus the viscous split |w| (and nothing else)
+    B = np.column_stack([Xt[:, :4], np.abs(w)])
+    for name in ("viscous_pos", "viscous_neg", "coulomb_pos", "coulomb_neg"):
+        assert _in_span(B, Xa[:, asym_names.index(name)]) < 1e-12
+    assert _in_span(Xt[:, :4], np.abs(w)) > 1e-3      # |w| is not in the twin
+
+
+def test_twin_flag_is_ignored_with_the_full_split(tmp_path):
+    _, prep = _prep(tmp_path, 4300, ("asymmetric_friction",))
+    n1, X1 = design(prep, ModelSpec(asymmetric=True))
+    n2, X2 = design(prep, dataclasses.replace(ModelSpec(asymmetric=True), coulomb_split=True))
+    assert n1 == n2
+    np.testing.assert_array_equal(X1, X2)
