@@ -16,8 +16,10 @@ import dataclasses
 import numpy as np
 
 from plant.calibration.bench_records import make_record
-from plant.calibration.fit import ModelSpec, design, design_full, prepare
+from plant.calibration import loop
+from plant.calibration.fit import ModelSpec, design_full, prepare
 from plant.calibration.io import load_record
+from plant.calibration.report import calibrate
 
 
 def _prep(tmp_path, seed, kinds):
@@ -25,6 +27,13 @@ def _prep(tmp_path, seed, kinds):
     path = tmp_path / f"rec_{seed}.csv"
     r.write_csv(path)
     return r, prepare(load_record(path))
+
+
+def _record(tmp_path, seed, kinds):
+    r = make_record(seed, kinds)
+    path = tmp_path / f"rec_{seed}.csv"
+    r.write_csv(path)
+    return r, path
 
 
 def _in_span(A: np.ndarray, b: np.ndarray) -> float:
@@ -59,7 +68,36 @@ def test_coulomb_split_twin_is_the_offset_while_moving(tmp_path):
 
 def test_twin_flag_is_ignored_with_the_full_split(tmp_path):
     _, prep = _prep(tmp_path, 4300, ("asymmetric_friction",))
-    n1, X1 = design(prep, ModelSpec(asymmetric=True))
-    n2, X2 = design(prep, dataclasses.replace(ModelSpec(asymmetric=True), coulomb_split=True))
+    n1, X1 = design_full(prep, ModelSpec(asymmetric=True))
+    n2, X2 = design_full(prep, dataclasses.replace(ModelSpec(asymmetric=True), coulomb_split=True))
     assert n1 == n2
     np.testing.assert_array_equal(X1, X2)
+
+
+def test_real_viscous_asymmetry_is_kept(tmp_path):
+    """First asymmetric record of 4300… (a tracking record): named, with its gain over the twin."""
+    r, path = _record(tmp_path, 4300, ("asymmetric_friction",))
+    rep = calibrate(str(path), str(tmp_path / "out"), plots=False)
+    named = {e["kind"]: e for e in rep["effects"]}
+    assert "asymmetric_friction" in named
+    p = named["asymmetric_friction"]["params"]
+    truth = r.truth["asymmetric_friction"]
+    for key in ("viscous_pos_nm_s_rad", "viscous_neg_nm_s_rad"):
+        assert abs(p[key] / truth[key] - 1.0) < 0.3
+    assert "predicts better than a symmetric one with the Coulomb level split" in named["asymmetric_friction"]["evidence"]
+
+
+def test_split_coulomb_gain_is_not_named_asymmetric(tmp_path, monkeypatch):
+    """First backlash record of 4300… (two-mass, stiffness declared as the benchmark does) whose
+    loop without the twin names an extra asymmetric friction (4306; 4308, 4309, 4310 too)."""
+    r, path = _record(tmp_path, 4306, ("backlash",))
+    k = r.meta["two_mass"]["stiffness_nm_rad"]
+    prep = prepare(load_record(path))
+    monkeypatch.setattr(loop, "_viscous_split_predicts", lambda *a, **kw: None)
+    without = {a.kind for a in loop.run_loop(prep, cfg=loop.LoopConfig(gear_stiffness=k)).accepted}
+    assert without == {"backlash", "asymmetric_friction"}, "precondition: without the twin the extra term is named"
+    monkeypatch.undo()
+    rep = calibrate(str(path), str(tmp_path / "out"), plots=False, gear_stiffness=k)
+    assert {e["kind"] for e in rep["effects"]} == {"backlash"}
+    reasons = [x["reason"] for x in rep["rejected"] if x["kind"] == "asymmetric_friction"]
+    assert any("split Coulomb level" in why for why in reasons)
