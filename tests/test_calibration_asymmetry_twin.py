@@ -101,3 +101,21 @@ def test_split_coulomb_gain_is_not_named_asymmetric(tmp_path, monkeypatch):
     assert {e["kind"] for e in rep["effects"]} == {"backlash"}
     reasons = [x["reason"] for x in rep["rejected"] if x["kind"] == "asymmetric_friction"]
     assert any("split Coulomb level" in why for why in reasons)
+
+
+def test_phase_guard_refuses_a_pre_sliding_the_motions_harmonics_describe(tmp_path, monkeypatch):
+    """Development record 1040 (gravity on a sinusoid; the case that led to the rule): without
+    the phase guard for reversal kinds an extra pre-sliding is named after the gravity; with it
+    the pre-sliding is refused with the phase reason and the gravity stays."""
+    r = make_record(1040)
+    assert list(r.hidden) == ["gravity_imbalance"] and r.meta["trajectory"] == "sinusoid"
+    path = tmp_path / "rec_1040.csv"
+    r.write_csv(path)
+    prep = prepare(load_record(path))
+    monkeypatch.setattr(loop, "PHASE_GUARDED", loop.PHASE_GUARDED - loop.REVERSAL_KINDS)
+    without = {a.kind for a in loop.run_loop(prep).accepted}
+    assert without == {"gravity_imbalance", "presliding"}, "precondition: without the guard the extra term is named"
+    monkeypatch.undo()
+    out = loop.run_loop(prep)
+    assert {a.kind for a in out.accepted} == {"gravity_imbalance"}
+    assert any(x["kind"] == "presliding" and "the motion is periodic" in x["reason"] for x in out.rejected)

@@ -78,8 +78,10 @@ OUT_OF_LIBRARY = ("friction_drift", "delay")
 #: :data:`plant.calibration.fit.TRANSFERABLE_COLUMNS`): with a held-out record they must lower its
 #: rms, as a library effect must, and they stay in its prediction.
 TRANSFERABLE = tuple(TRANSFERABLE_NUISANCE)
-#: Smooth terms that a periodic motion's phase function can stand in for (the phase guard of :func:`run_loop`).
-PHASE_GUARDED = frozenset({"gravity_imbalance", "position_periodic", "time_periodic"})
+#: Terms that a periodic motion's phase function can stand in for (the phase guard of :func:`run_loop`):
+#: the smooth terms (session 18) and the reversal kinds, whose state on a periodic motion is a function of
+#: its phase too (session 21, docs/calibration.md).
+PHASE_GUARDED = frozenset({"gravity_imbalance", "position_periodic", "time_periodic", "presliding", "backlash"})
 #: Gravity imbalance is tried when the travel spans at least this much [rad] (20°): below it
 #: ``sin θ``, ``cos θ`` are nearly collinear with the offset (cos) and a position-linear torque
 #: (sin), and amplitude and phase trade off against each other.
