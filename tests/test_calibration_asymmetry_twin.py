@@ -8,6 +8,8 @@ friction symmetric, Coulomb split (``ModelSpec.coulomb_split``) — on held-out 
 
 The twin's columns are checked against that algebra written here; the loop on records of the
 independent generator (``plant.calibration.bench_records``, which imports nothing from the fit).
+The same session's second rule is tested here too: on a periodic motion pre-sliding and backlash
+go through the phase guard (``loop.PHASE_GUARDED``).
 """
 from __future__ import annotations
 
