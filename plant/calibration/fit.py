@@ -29,9 +29,7 @@ with ``w = dq`` and ``c = sign(dq)`` in the baseline. Effects change this as fol
 ``asymmetric_friction`` splits ``w`` and ``c`` into their positive and negative parts (and drops
 the offset, which the two Coulomb levels then absorb — it is not separately identifiable);
 ``presliding`` replaces ``c`` by the normalised LuGre bristle force ``s`` (ds/dt = k(w − |w|s),
-``k = σ0/Fc``, with ``w`` set to 0 where it runs against the resolved direction of
-:func:`resolved_direction`: a wiggle under ``MIN_TRANSITION_COUNTS`` quanta moves no bristle) and
-adds ``σ1·(w − |w|s)``; ``backlash`` computes ``w`` and ``c`` from the
+``k = σ0/Fc``) and adds ``σ1·(w − |w|s)``; ``backlash`` computes ``w`` and ``c`` from the
 play-operator output of the position (the load moves only once the gap is closed);
 ``position_periodic``, ``gravity_imbalance`` and ``time_periodic`` add sine/cosine column pairs.
 Nonlinear hyper-parameters (vs, k, backlash width, periods, frequencies) are refined by
@@ -63,11 +61,6 @@ MAX_FIT_SAMPLES = 60_000
 #: — live in the first three; gravity over a 180° travel, ``sin(A sin φ)`` with ``A = π/2``, has
 #: > 99 % of its power in harmonics 1–3, Bessel ``J1..J3``; docs/calibration.md, session 18).
 PHASE_HARMONICS = 3
-#: Fewest position quanta a transition (a pre-sliding displacement, a backlash width, a reversal's
-#: excursion) must span for the record to resolve it (assumed: a few counts of a quantised
-#: position are the velocity loop's own hunting; docs/calibration.md, "The loop and the
-#: acceptance rule").
-MIN_TRANSITION_COUNTS = 10.0
 
 
 @dataclasses.dataclass
@@ -360,53 +353,11 @@ def _play_kernel(q: np.ndarray, h: float) -> np.ndarray:  # pragma: no cover - c
     return out
 
 
-def _direction_kernel(q: np.ndarray, h: float) -> np.ndarray:  # pragma: no cover - compiled
-    # zig-zag: a turning point is confirmed once the position has come back by h from it
-    n = q.size
-    out = np.zeros(n)
-    if n == 0:
-        return out
-    d = 0
-    start = 0
-    hi = lo = q[0]
-    hi_i = lo_i = 0
-    for i in range(n):
-        x = q[i]
-        if d == 0:
-            if x > hi:
-                hi, hi_i = x, i
-            if x < lo:
-                lo, lo_i = x, i
-            if x - lo >= h and lo_i >= hi_i:      # up, from the lowest point so far
-                d, start, hi, hi_i = 1, lo_i, x, i
-            elif hi - x >= h and hi_i >= lo_i:    # down, from the highest point so far
-                d, start, lo, lo_i = -1, hi_i, x, i
-            elif x - lo >= h:
-                d, start, hi, hi_i = 1, lo_i, x, i
-            elif hi - x >= h:
-                d, start, lo, lo_i = -1, hi_i, x, i
-        elif d == 1:
-            if x > hi:
-                hi, hi_i = x, i
-            elif hi - x >= h:
-                out[start:hi_i + 1] = 1.0
-                d, start, lo, lo_i = -1, hi_i + 1, x, i
-        else:
-            if x < lo:
-                lo, lo_i = x, i
-            elif x - lo >= h:
-                out[start:lo_i + 1] = -1.0
-                d, start, hi, hi_i = 1, lo_i + 1, x, i
-    out[start:] = float(d)
-    return out
-
-
-try:  # the sample-by-sample recursions compiled when numba is there (same code interpreted otherwise)
+try:  # the two sample-by-sample recursions compiled when numba is there (same code interpreted otherwise)
     from numba import njit as _njit
 
     _presliding_kernel = _njit(cache=True)(_presliding_kernel)
     _play_kernel = _njit(cache=True)(_play_kernel)
-    _direction_kernel = _njit(cache=True)(_direction_kernel)
 except ImportError:  # pragma: no cover
     pass
 
@@ -425,30 +376,6 @@ def presliding_state(w: np.ndarray, k: float, dt: float) -> np.ndarray:
     """
     w = np.ascontiguousarray(w, dtype=float)
     return _presliding_kernel(np.exp(-k * np.abs(w) * dt), np.sign(w))
-
-
-def resolved_direction(q: np.ndarray, h: float) -> np.ndarray:
-    """Direction of the motion at each sample, counting only reversals the record resolves: +1, −1, 0.
-
-    A turning point of ``q`` is a reversal only when the position then comes back by at least
-    ``h`` from it (a zig-zag filter, applied offline, so each sample gets the direction of the
-    resolved monotone stretch it lies in, turning point included). A wiggle smaller than ``h``
-    inside a stretch — a count or two of the velocity loop hunting on quantised feedback — keeps
-    the stretch's direction. Samples before the first move of ``h`` get 0.
-
-    Parameters
-    ----------
-    q : ndarray, shape (N,)
-        Position [rad or m].
-    h : float
-        Smallest excursion that counts as a reversal [rad or m], ≥ 0; 0 gives ``sign`` of the
-        position's differences, every turning point a reversal.
-
-    Returns
-    -------
-    ndarray, shape (N,)
-    """
-    return _direction_kernel(np.ascontiguousarray(q, dtype=float), max(float(h), 0.0))
 
 
 def play_operator(q: np.ndarray, width: float) -> np.ndarray:
@@ -533,15 +460,6 @@ def design_full(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None, t=No
     if geared is not None:
         c = geared
     elif spec.presliding_k is not None:
-        if prep.position_resolution > 0 and spec.backlash_width is None and q is prep.q:
-            # the bristle state moves only with resolved motion: a wiggle of under
-            # MIN_TRANSITION_COUNTS quanta against the stretch's direction leaves it where it is
-            # (docs/calibration.md, "Session 22")
-            h = MIN_TRANSITION_COUNTS * prep.position_resolution
-            dirn = prep.__dict__.get("_direction")
-            if dirn is None:
-                dirn = prep.__dict__["_direction"] = resolved_direction(q, h)
-            w = np.where(w * dirn > 0, w, 0.0)
         c = presliding_state(w, spec.presliding_k, dt)
     else:
         use_ramp = prep.coulomb is not None and spec.backlash_width is None and dq is prep.dq

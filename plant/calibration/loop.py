@@ -61,7 +61,7 @@ import numpy as np
 from scipy import stats
 
 from plant.calibration import residuals as res
-from plant.calibration.fit import (MIN_TRANSITION_COUNTS, PHASE_HARMONICS, TRANSFERABLE_NUISANCE, FitResult, ModelSpec, Prepared, _solve, design,
+from plant.calibration.fit import (PHASE_HARMONICS, TRANSFERABLE_NUISANCE, FitResult, ModelSpec, Prepared, _solve, design,
                                     effective_n, fit_model, predict)
 from plant.effects import EFFECT_KINDS, Effect, build_effect
 
@@ -278,6 +278,8 @@ def fit_baseline(prep: Prepared, cfg: LoopConfig | None = None) -> tuple[FitResu
     decision["reason"] = "; ".join(why)
     return base, decision
 
+
+MIN_TRANSITION_COUNTS = 10.0
 
 
 def _resolved(fit: FitResult, resolution: float = 0.0) -> str | None:
