@@ -213,6 +213,11 @@ def cv_compare(err0: np.ndarray, err1: np.ndarray, n_batches: int = 40) -> tuple
     return 100.0 * float(np.mean(d)) / m0, float(z)
 
 
+def predicts(gain_pct: float, z: float, zc: float) -> bool:
+    """The acceptance rule on a :func:`cv_compare` result: a positive gain, significant (``z ≥ zc``)."""
+    return gain_pct > 0 and z >= zc
+
+
 def z_critical(alpha: float, n_tests: int) -> float:
     """One-sided normal critical value for a family-wise error ``alpha`` over ``n_tests`` tests (Bonferroni)."""
     return float(stats.norm.isf(alpha / max(n_tests, 1)))
@@ -263,13 +268,13 @@ def fit_baseline(prep: Prepared, cfg: LoopConfig | None = None) -> tuple[FitResu
                      "cv_z": z, "slow_share": slow_share})
     # the Stribeck test belongs to the run's family of tests: same Bonferroni level as the effects
     zc = z_critical(cfg.family_alpha, 12 * cfg.max_effects)
-    if z >= zc and gain > 0 and excess > 0 and slow_share >= 0.02:
+    if predicts(gain, z, zc) and excess > 0 and slow_share >= 0.02:
         decision["included"] = True
         decision["reason"] = (f"predicts held-out blocks better (gain {gain:.1f} %, z = {z:.1f}), Ts − Fc = {excess:.3g} ± {sd:.2g}, "
                               f"{100 * slow_share:.1f} % of moving samples below 2·vs")
         return best, decision
     why = []
-    if not (z >= zc and gain > 0):
+    if not predicts(gain, z, zc):
         why.append(f"cross-validated gain {gain:.2f} % with z = {z:.1f} (needs > 0 and z ≥ {zc:.2f})")
     if not excess > 0:
         why.append("Ts − Fc at its bound 0 (no static excess)")
@@ -451,7 +456,7 @@ def _viscous_split_predicts(prep: Prepared, c: dict[str, Any], zc: float, cfg: L
     twin = dataclasses.replace(c["fit"].spec.copy(), asymmetric=False, coulomb_split=True)
     g, z = cv_compare(cv_losses(prep, twin, cfg.k_folds), c["loss"])
     c["gain_over_coulomb_split_pct"], c["z_over_coulomb_split"] = g, z
-    if z >= zc and g > 0:
+    if predicts(g, z, zc):
         return None
     return (f"its gain comes from the split Coulomb level, which with the offset in the model is the offset acting only "
             f"while the axis moves (it differs from it only at rests): against that twin, with the viscous friction "
@@ -1009,7 +1014,7 @@ def run_loop(
         passing = []
         for c in cands:
             why = None
-            if not (c["cv_z"] >= zc and c["cv_gain_pct"] > 0):
+            if not predicts(c["cv_gain_pct"], c["cv_z"], zc):
                 why = (f"does not predict held-out blocks better: gain {c['cv_gain_pct']:.2f} %, z = {c['cv_z']:.1f} "
                        f"(needs > 0 and z ≥ {zc:.2f})")
                 if (c["group"] == "reversal" and c["cv_gain_pct"] > 0 and n_rev < k_min
@@ -1028,7 +1033,7 @@ def run_loop(
             if why is None and c["kind"] == "time_periodic" and c["motion_share"] >= 0.02:
                 # the motion has a line here: must still predict with a flexible velocity function in both models
                 g, z = _gain_with_nuisance(prep, cur.spec, c["fit"].spec, "velocity_function", cfg.k_folds)
-                if not (z >= zc and g > 0):
+                if not predicts(g, z, zc):
                     why = (f"the motion has a line at this frequency ({100 * c['motion_share']:.0f} % of the velocity signal) "
                            f"and with a flexible velocity function in the model the line no longer predicts (gain {g:.2f} %, "
                            f"z = {z:.1f}): a velocity-dependent model error, not a disturbance")
@@ -1044,7 +1049,7 @@ def run_loop(
             if why is None and phase_hz is not None and c["kind"] in PHASE_GUARDED:
                 # a periodic motion: must still predict with any smooth function of its phase in both models
                 g, z = _gain_with_nuisance(prep, cur.spec, c["fit"].spec, "phase_function", cfg.k_folds, phase_hz=phase_hz)
-                if not (z >= zc and g > 0):
+                if not predicts(g, z, zc):
                     why = (f"the motion is periodic ({PHASE_HARMONICS} harmonics of {phase_hz:.4g} Hz explain "
                            f"{100 * phase_share:.1f} % of the velocity) and with those harmonics in the model the term no "
                            f"longer predicts (gain {g:.2f} %, z = {z:.1f}): on this record it cannot be told apart from a "
@@ -1068,7 +1073,7 @@ def run_loop(
             # library first: an out-of-library description wins only if it predicts significantly
             # better than the best library candidate (same test, same level)
             g, z = cv_compare(lib[0]["loss"], chosen["loss"])
-            if not (z >= zc and g > 0):
+            if not predicts(g, z, zc):
                 log.append(f"step {step}: {chosen['kind']} not significantly better than {lib[0]['kind']} "
                            f"(gain {g:.2f} %, z = {z:.1f}): the library effect is taken")
                 chosen = lib[0]
