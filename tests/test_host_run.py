@@ -161,6 +161,11 @@ def test_bench_json_keys(capsys):
     assert {"rtf", "rtf_naive", "ratio", "boards", "bus_load_pct", "peak_memory", "network"} <= set(out)
     assert out["boards"] == 6 and out["rtf"] > 0 and out["rtf_naive"] > 0        # five + the USB gateway
     assert out["network"] == "basic" and out["peak_memory"]["max_rss_mib"] > 0
+    # every run is reported, the best of each design is the headline, and each pair's ratio is
+    # the ratio of its two runs
+    assert len(out["rtf_runs"]) == len(out["rtf_naive_runs"]) == len(out["ratio_pairs"]) == 1
+    assert out["rtf"] == max(out["rtf_runs"]) and out["rtf_naive"] == max(out["rtf_naive_runs"])
+    assert abs(out["ratio_pairs"][0] - out["rtf_runs"][0] / out["rtf_naive_runs"][0]) <= 0.01 * out["ratio_pairs"][0] + 0.01
     # the load is the bus model's occupied time: between the shortest (0-byte, 47 bits) and the
     # longest (8-byte, 135 bits) frame per frame counted, at 1 Mbit/s (1 bit = 1 µs)
     fps = out["bus_frames_per_s"]
