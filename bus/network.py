@@ -11,9 +11,11 @@ Model
   with the highest TXP offered first, equal TXP: the highest buffer number (DS21801 §3.2), with
   the firmware's FIFO in front. Either way a node offers one frame per arbitration.
 * Arbitration: when the bus is idle and something is pending, an arbitration event is scheduled
-  at the current µs with priority ``PRIO_CAN``; so every frame submitted at that µs by timer
-  ISRs (``PRIO_ISR``) competes. The head frame with the lowest identifier wins (equal
-  identifiers, illegal on a real bus, go by submission order).
+  at the current µs with priority ``PRIO_ARBITRATION``, after every other event of that µs; so
+  every frame submitted at that µs — by timer ISRs, background loops, receive handlers or the
+  host — competes (before session 22 the event ran at ``PRIO_CAN``, so the first background
+  loop's frame went first whatever its identifier). The head frame with the lowest identifier
+  wins (equal identifiers, illegal on a real bus, go by submission order).
 * The winner occupies the bus for ``frame_bits`` bit times (``ceil(bits * 1e6 / bitrate)`` µs;
   exactly ``bits`` µs at 1 Mbit/s, including the 3-bit intermission), then it is delivered to
   every *other* attached bus whose acceptance filters pass it, with ``timestamp = end_us / 1e6``,
@@ -60,7 +62,7 @@ import can
 from bus import bitkernel as _bitkernel
 from bus.errors import BusError
 from bus.jit_entry import entry_point
-from bus.scheduler import PRIO_CAN, Event, Scheduler
+from bus.scheduler import PRIO_ARBITRATION, PRIO_CAN, Event, Scheduler
 
 __all__ = ["CanNetwork", "TxBuffers", "RxFrame", "get_network", "frame_bits", "clear_frame_bits_cache",
            "frame_bits_unstuffed", "crc15",
@@ -756,7 +758,7 @@ class CanNetwork:
         self._taps: list = []
         self._owner = f"can:{channel}"
         # the one-shot events of arbitration and frame completion, reused once spent
-        self._arb_event = Event(0, PRIO_CAN, self._arbitrate, self._owner, None)
+        self._arb_event = Event(0, PRIO_ARBITRATION, self._arbitrate, self._owner, None)
         self._complete_event = Event(0, PRIO_CAN, self._complete, self._owner, None)
         self._arb_event.cancelled = self._complete_event.cancelled = True     # not queued
         # fault confinement (inactive until a fault is injected: fast path unchanged)
@@ -930,7 +932,7 @@ class CanNetwork:
             if ev.cancelled:                  # spent: reuse it (no Event built per frame)
                 sched._reschedule_trusted(ev, sched.now_us)
             else:
-                self._arb_event = sched._call_at_trusted(sched.now_us, self._arbitrate, PRIO_CAN,
+                self._arb_event = sched._call_at_trusted(sched.now_us, self._arbitrate, PRIO_ARBITRATION,
                                                          self._owner)
 
     def _arbitrate(self, now_us: int) -> None:
@@ -956,7 +958,7 @@ class CanNetwork:
                 self._busy = False
                 if wake is not None:
                     self._arb_scheduled = True
-                    self.scheduler.call_at(wake, self._arbitrate, PRIO_CAN, owner=self._owner)
+                    self.scheduler.call_at(wake, self._arbitrate, PRIO_ARBITRATION, owner=self._owner)
                 return
         else:
             heads = self._heads
@@ -1161,7 +1163,7 @@ class CanNetwork:
             self._npending += 1
             if tx.state == ERROR_PASSIVE:
                 tx.suspend_until_us = now_us + dur_us + self._bit_us(SUSPEND_BITS)
-        self.scheduler.call_at(now_us + dur_us, self._arbitrate, PRIO_CAN, owner=self._owner)
+        self.scheduler.call_at(now_us + dur_us, self._arbitrate, PRIO_ARBITRATION, owner=self._owner)
         self._arb_scheduled = True
 
     def _after_success(self, now_us: int, pending):

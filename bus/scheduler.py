@@ -41,6 +41,7 @@ __all__ = [
     "PRIO_CAN",
     "PRIO_BACKGROUND",
     "PRIO_HOST",
+    "PRIO_ARBITRATION",
 ]
 
 #: Plant integration runs first at a given instant, so sensors read the state at ``now_us``.
@@ -53,6 +54,11 @@ PRIO_CAN: Final = 20
 PRIO_BACKGROUND: Final = 30
 #: Host-side scenario steps and logging.
 PRIO_HOST: Final = 40
+#: CAN arbitration on an idle bus: after every other event of the same µs, so that every frame
+#: submitted at that µs — by a timer ISR, a background loop, a receive handler or the host —
+#: competes, and the lowest identifier wins, as on a real bus where all of them are ready before
+#: the start-of-frame bit (ISO 11898-1 §10.4.5; docs/protocol.md, "Bus timing").
+PRIO_ARBITRATION: Final = 50
 
 Callback = Callable[[int], object]
 

@@ -11,7 +11,7 @@ import bus  # noqa: F401  (registers schmidt-sim)
 from bus.errors import BusError
 from bus.network import (CanNetwork, clear_frame_bits_cache, crc15, frame_bits,
                          frame_bits_unstuffed, get_network)
-from bus.scheduler import PRIO_ISR, Scheduler
+from bus.scheduler import PRIO_BACKGROUND, PRIO_CAN, PRIO_HOST, PRIO_ISR, Scheduler
 from bus.simbus import SimBus
 
 
@@ -152,6 +152,27 @@ def test_arbitration_lowest_identifier_wins_at_same_microsecond(sched, net):
     assert order == [(0x100, t1), (0x200, t2), (0x300, t3)]
     stats = net.stats()
     assert stats["max_latency_us"] == {0x100: 0, 0x200: t1 - 500, 0x300: t2 - 500}
+
+
+@pytest.mark.parametrize("first", [PRIO_ISR, PRIO_CAN, PRIO_BACKGROUND, PRIO_HOST])
+def test_every_frame_of_the_same_microsecond_competes_whatever_submitted_it(sched, net, first):
+    """On an idle bus, frames made ready in the same µs by a background loop, an ISR, a receive
+    handler or the host all take part in the first arbitration: the lowest identifier is sent
+    first, whichever event submitted first (ISO 11898-1: every node ready before the
+    start-of-frame bit arbitrates). Before session 22 the first background loop's frame went
+    first whatever its identifier."""
+    a, b, c, rx = (make_bus(net) for _ in range(4))
+    order = []
+    # the highest identifier is submitted by the event that runs first at t = 500 µs
+    sched.call_at(500, lambda now: a.send(msg(0x300)), first)
+    sched.call_at(500, lambda now: b.send(msg(0x100)), PRIO_HOST)
+    sched.call_at(500, lambda now: c.send(msg(0x200)), PRIO_BACKGROUND)
+    sched.run_until(5_000)
+    while (m := rx.recv()) is not None:
+        order.append((m.arbitration_id, round(m.timestamp * 1e6)))
+    t1 = 500 + frame_bits(0x100, bytes(8))
+    t2 = t1 + frame_bits(0x200, bytes(8))
+    assert order == [(0x100, t1), (0x200, t2), (0x300, t2 + frame_bits(0x300, bytes(8)))]
 
 
 def test_each_node_transmits_in_submission_order(sched, net):
