@@ -57,7 +57,9 @@ PRIO_HOST: Final = 40
 #: CAN arbitration on an idle bus: after every other event of the same µs, so that every frame
 #: submitted at that µs — by a timer ISR, a background loop, a receive handler or the host —
 #: competes, and the lowest identifier wins, as on a real bus where all of them are ready before
-#: the start-of-frame bit (ISO 11898-1 §10.4.5; docs/protocol.md, "Bus timing").
+#: the start-of-frame bit (ISO 11898-1 bitwise arbitration; the model: ``bus/network.py`` docstring,
+#: docs/architecture.md). The arbitration that follows a completed frame runs inline at
+#: ``PRIO_CAN``, among the frames pending at that moment.
 PRIO_ARBITRATION: Final = 50
 
 Callback = Callable[[int], object]
