@@ -1,5 +1,5 @@
 """Measure in the generator's own states the lost motion at each reversal: motor travel from the motor's
-reversal until the load moves in the new direction (|load travel| > 1 quantum)."""
+reversal until the load has moved 2 % of the gap in the new direction."""
 import os, sys, math, re, inspect, types
 import numpy as np
 sys.path.insert(0, os.getcwd())
