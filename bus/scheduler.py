@@ -8,6 +8,10 @@ Ordering is total and deterministic: events are ordered by ``(t_us, priority, se
 time a lower ``priority`` number runs first, and ``seq`` (insertion order) breaks the remaining
 ties. Two runs of the same scenario therefore execute the same callbacks in the same order.
 
+Periodic events of one period, phase and priority (a board's timers: the 5 ms ISRs, the
+background loops, the heartbeats) share one heap entry, a :class:`TimerGroup`, which runs them in
+the order they would run one by one; the rule above holds exactly (the class docstring says how).
+
 The queue is a binary heap of the :class:`Event` objects themselves, ordered by those three
 integer fields (:func:`_sift_down` / :func:`_sift_up`: the algorithm of :mod:`heapq`), not a
 :mod:`heapq` of tuples. Compiled (``bus/_native.py``), its comparisons are C compares of the
@@ -86,10 +90,14 @@ class Event:
         Insertion number of its current place in the queue (breaks ties of ``t_us`` and
         ``priority``).
     queued : bool
-        True while it is in the scheduler's heap (a cancelled event stays there until its time).
+        True while it is in the scheduler's heap (a cancelled event stays there until its time);
+        a member of a timer group is queued through its group's entry.
+    group : TimerGroup or None
+        On the heap entry of a timer group (see :class:`TimerGroup`): the group. None on every
+        event returned to a caller.
     """
 
-    __slots__ = ("t_us", "priority", "seq", "callback", "owner", "period_us", "cancelled", "queued")
+    __slots__ = ("t_us", "priority", "seq", "callback", "owner", "period_us", "cancelled", "queued", "group")
 
     def __init__(self, t_us: int, priority: int, callback: Callback, owner: str | None,
                  period_us: int | None) -> None:
@@ -101,6 +109,7 @@ class Event:
         self.period_us = period_us
         self.cancelled = False
         self.queued = False
+        self.group: Optional[TimerGroup] = None   # set on the heap entry of a timer group
 
     def describe_owner(self) -> str:
         """Return the owner string, or the callback's qualified name when no owner was given."""
@@ -173,6 +182,113 @@ def _heap_pop(heap: list[Event]) -> Event:
     return first
 
 
+class TimerGroup:
+    """Periodic events of one period, phase and priority that fire one after another: one heap entry.
+
+    A board's timers share a few periods and phases (the 5 ms ISRs of the axis controllers and
+    tachometers, their background loops, the 10 ms readers, the 1 s heartbeats: docs/performance.md,
+    "Session 23"). Scheduled one by one, each of them was popped from and sifted back into the heap
+    at every period. A group is one heap entry that runs its members in the order they would have
+    run one by one, so the order of every callback is unchanged — the ordering rule of the module
+    docstring still holds exactly:
+
+    * members fire in the order they joined, and a periodic event joins a group only when no other
+      event of the same time and priority was queued after the group's entry
+      (:meth:`Scheduler.call_every`);
+    * while a member runs, an event queued to run before the next member at this instant (same
+      time, lower priority number) or between the group and the next member at the next period
+      (the group's next time and priority) splits the members not yet run into a new group, queued
+      exactly where they stood one by one (:meth:`_split_off`); so does :meth:`Scheduler.step`,
+      which runs one member, and an exception in a member;
+    * a cancelled member is skipped and dropped; an empty group cancels its entry.
+
+    ``tests/test_bus_scheduler.py`` checks the order against a reference clock that keeps every
+    event on its own (random events, periods, priorities, cancellations, and callbacks that queue
+    events at this instant and one period ahead).
+    """
+
+    def __init__(self, scheduler: "Scheduler", period_us: int, priority: int, key: tuple[int, int, int]) -> None:
+        self.scheduler = scheduler
+        self.period_us = period_us
+        self.priority = priority
+        self.key = key
+        self.members: list[Event] = []
+        self.event = Event(0, priority, self.fire, None, period_us)
+        self.event.group = self
+        self.sched_seq = 0           # the entry's seq for the firing it is queued for
+        self.split = False           # set by Scheduler._note_push while a member runs
+        self.step_once = False       # set by Scheduler.step: run one member, split off the rest
+
+    def live(self) -> int:
+        """Number of members not cancelled."""
+        return sum(1 for m in self.members if not m.cancelled)
+
+    def fire(self, t: int) -> None:
+        """Run the members due at ``t`` (the entry is already queued for ``t + period_us``)."""
+        s = self.scheduler
+        base_seq = self.sched_seq
+        self.sched_seq = self.event.seq
+        members = self.members
+        n = len(members)
+        period = self.period_us
+        nxt = t + period
+        s._firing = self
+        self.split = False
+        once = self.step_once
+        self.step_once = False
+        i = 0
+        ran = 0
+        dead = 0
+        try:
+            while i < n:
+                m = members[i]
+                i += 1
+                if m.cancelled:
+                    dead += 1
+                    continue
+                m.t_us = nxt
+                ran += 1
+                try:
+                    m.callback(t)
+                except SimulationError:
+                    self._split_off(i, n, t, base_seq)
+                    raise
+                except Exception as exc:
+                    self._split_off(i, n, t, base_seq)
+                    raise s._wrap(m, exc)
+                if (self.split or once) and i < n:
+                    self._split_off(i, n, t, base_seq)
+                    break
+        finally:
+            s._firing = None
+            s.events_run += ran - 1      # the entry was counted as one event
+        if dead:
+            self.members = [m for m in self.members if not m.cancelled]
+            if not self.members:
+                self.event.cancelled = True
+                if s._heads.get(self.key) is self.event:
+                    del s._heads[self.key]
+
+    def _split_off(self, i: int, n: int, t: int, base_seq: int) -> None:
+        """Move the members ``i … n−1`` (not yet run at ``t``) into a new group queued at ``t``
+        with this firing's seq: where they stood, one by one, before this group ran."""
+        rest = [m for m in self.members[i:n] if not m.cancelled]
+        self.members = self.members[:i] + self.members[n:]
+        if not rest:
+            return
+        s = self.scheduler
+        g = TimerGroup(s, self.period_us, self.priority, self.key)
+        g.members = rest
+        ev = g.event
+        ev.t_us = t
+        ev.seq = base_seq
+        g.sched_seq = base_seq
+        ev.queued = True
+        heap = s._heap
+        heap.append(ev)
+        _sift_down(heap, 0, len(heap) - 1)
+
+
 class Scheduler:
     """Deterministic event scheduler; the single owner of simulated time.
 
@@ -202,6 +318,10 @@ class Scheduler:
         self._heap: list[Event] = []
         self._seq = 0
         self._running = False
+        # (period, phase, priority) → the heap entry last queued for it: a lone periodic event
+        # or a TimerGroup's entry (call_every)
+        self._heads: dict[tuple[int, int, int], Event] = {}
+        self._firing: Optional[TimerGroup] = None
 
     # -- scheduling -------------------------------------------------------------------------
     def call_at(self, t_us: Any, callback: Callback, priority: int = 0, *,
@@ -284,8 +404,54 @@ class Scheduler:
             raise SimulationError(f"start {t_us} µs is before now ({self.now_us} µs)",
                                   owner, self.now_us)
         ev = Event(t_us, priority, callback, owner, period_us)
-        self._push(ev)
+        # one heap entry per (period, phase, priority): a lone periodic event, turned into a
+        # TimerGroup when a second one joins it — only where the order one by one is kept (no
+        # event of the same time and priority queued after it)
+        key = (period_us, priority, t_us % period_us)
+        head = self._heads.get(key)
+        if (head is None or head.t_us != t_us or head.cancelled or not head.queued
+                or not self._may_join(head)):
+            self._push(ev)
+            self._heads[key] = ev
+            return ev
+        g = head.group
+        if g is None:                    # the lone event becomes a group's first member
+            g = TimerGroup(self, period_us, priority, key)
+            g.members.append(head)
+            gev = g.event
+            gev.t_us = head.t_us
+            gev.seq = head.seq
+            g.sched_seq = head.seq
+            gev.queued = True
+            heap = self._heap
+            heap[heap.index(head)] = gev  # same (t_us, priority, seq): the heap stays ordered
+            self._heads[key] = gev
+        self._seq += 1                   # the seq it would have had: numbering as one by one
+        self._note_push(t_us, priority)
+        g.members.append(ev)
+        ev.seq = g.event.seq
+        ev.queued = True
         return ev
+
+    def _may_join(self, head: Event) -> bool:
+        """True if no event of ``head``'s time and priority was queued after ``head`` (a scan
+        of the heap: joins happen when timers start, not per event)."""
+        t, prio, seq = head.t_us, head.priority, head.seq
+        for e in self._heap:
+            if e.t_us == t and e.priority == prio and e.seq > seq:
+                return False
+        return True
+
+    def _note_push(self, t_us: int, priority: int) -> None:
+        """While a group's member runs: an event queued before its next member at this instant, or
+        between the group and its next member one period on, splits the group (:class:`TimerGroup`)."""
+        f = self._firing
+        if f is not None:
+            if t_us == self.now_us:
+                if priority < f.priority:
+                    f.split = True
+            elif t_us == f.event.t_us and priority == f.priority:
+                f.split = True
 
     def _call_at_trusted(self, t_us: int, callback: Callback, priority: int, owner: str | None) -> Event:
         """:meth:`call_at` without its checks, for the simulator's own hot paths (the CAN
@@ -322,6 +488,8 @@ class Scheduler:
         self._seq += 1
         ev.seq = self._seq
         ev.queued = True
+        if self._firing is not None:
+            self._note_push(ev.t_us, ev.priority)
         heap = self._heap
         heap.append(ev)
         _sift_down(heap, 0, len(heap) - 1)
@@ -330,13 +498,26 @@ class Scheduler:
     def next_event_us(self) -> int | None:
         """Time of the next pending (non-cancelled) event, µs, or ``None`` if there is none."""
         heap = self._heap
-        while heap and heap[0].cancelled:
-            _heap_pop(heap)
+        while heap:
+            top = heap[0]
+            g = top.group
+            if top.cancelled or (g is not None and not g.live()):
+                _heap_pop(heap)
+                top.cancelled = True
+                if g is not None and self._heads.get(g.key) is top:
+                    del self._heads[g.key]
+                continue
+            break
         return heap[0].t_us if heap else None
 
     def pending(self) -> int:
-        """Number of queued, non-cancelled events."""
-        return sum(1 for ev in self._heap if not ev.cancelled)
+        """Number of queued, non-cancelled events (each member of a timer group counted)."""
+        n = 0
+        for ev in self._heap:
+            if not ev.cancelled:
+                g = ev.group
+                n += 1 if g is None else g.live()
+        return n
 
     def run_until(self, t_us: Any) -> None:
         """Run every event with time ``<= t_us`` in order, then set ``now_us = t_us``.
@@ -417,6 +598,8 @@ class Scheduler:
         else:
             ev.t_us = t + ev.period_us
             self._push(ev)
+            if ev.group is not None:
+                ev.group.step_once = True    # one member; the rest split off, queued where they stood
         self.events_run += 1
         self._running = True
         try:

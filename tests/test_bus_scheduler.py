@@ -270,3 +270,160 @@ def test_order_matches_a_reference_without_a_heap(ops, ends):
         assert seen == seen_ref
         assert s.now_us == ref.now_us == end
     assert s.pending() == sum(1 for i in ref.items if not i[5])
+
+
+# -- timer groups (bus.scheduler.TimerGroup) against the same reference ------------------------
+def _ref_step(ref, on_run):
+    """One event of the reference clock (``Scheduler.step``'s contract); False if none."""
+    live = [i for i in ref.items if not i[5]]
+    if not live:
+        return False
+    first = min(live, key=lambda i: (i[0], i[1], i[2]))
+    ref.now_us = first[0]
+    if first[4] is None:
+        first[5] = True
+    else:
+        ref.seq += 1
+        first[0] += first[4]
+        first[2] = ref.seq
+    on_run(first)
+    return True
+
+
+# what a callback does: cancel another event; queue a one-shot (at this instant or one period of
+# its own ahead, at a drawn priority); start a new periodic event (same period, due one period on)
+_act = st.tuples(st.integers(0, 12), st.sampled_from(["none", "now", "period", "every"]), st.integers(0, 3))
+_grp_op = st.tuples(st.sampled_from([0, 0, 10, 20, 35]), st.integers(0, 3),
+                    st.sampled_from([None, 10, 10, 20, 35]), _act)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(_grp_op, min_size=2, max_size=40),
+       st.lists(st.one_of(st.integers(1, 120), st.just(0)), min_size=1, max_size=10))
+def test_timer_groups_keep_the_order_of_events_one_by_one(ops, ends):
+    """Many periodic events share a (period, phase, priority) and so a TimerGroup; their
+    callbacks cancel events, queue one-shots at this instant and exactly one period ahead at
+    every priority (the cases that split a group), and start new periodic events that join
+    groups; ``0`` in ``ends`` is a ``step()``. The order of (event, time) and ``pending()`` match
+    a reference that keeps every event on its own, with no groups and no heap."""
+    s, ref = Scheduler(), _ReferenceClock()
+    seen, seen_ref = [], []
+    events, ref_items = {}, {}
+    limit = 120
+
+    def action(idx, now_us):
+        tgt, what, prio = ops[idx % len(ops)][3]
+        return tgt, ((what if (idx + now_us // 5) % 3 else "none") if idx < 1000 else "none"), prio
+
+    def make_cb(idx, period):
+        def cb(now_us):
+            seen.append((idx, now_us))
+            tgt, what, prio = action(idx, now_us)
+            if tgt in events:
+                s.cancel(events[tgt])
+            if len(events) >= limit or what == "none":
+                return
+            k = 1000 + len(events) if what != "every" else 2000 + len(events)
+            if what == "now":
+                events[k] = s.call_at(now_us, make_cb(k, None), priority=prio)
+            elif what == "period" and period:
+                events[k] = s.call_at(now_us + period, make_cb(k, None), priority=prio)
+            elif what == "every" and period:
+                events[k] = s.call_every(period, make_cb(k, period), priority=ops[idx % len(ops)][1])
+        return cb
+
+    def ref_run(item):
+        idx, t = item[3], ref.now_us
+        seen_ref.append((idx, t))
+        tgt, what, prio = action(idx, t)
+        period = item[4] if idx < 1000 or idx >= 2000 else None
+        if idx >= 1000 and idx < 2000:
+            period = None
+        if tgt in ref_items:
+            ref_items[tgt][5] = True
+        if len(ref_items) >= limit or what == "none":
+            return
+        k = 1000 + len(ref_items) if what != "every" else 2000 + len(ref_items)
+        own = item[4]
+        if what == "now":
+            ref_items[k] = ref.add(t, prio, k, None)
+        elif what == "period" and own:
+            ref_items[k] = ref.add(t + own, prio, k, None)
+        elif what == "every" and own:
+            ref_items[k] = ref.add(t + own, ops[idx % len(ops)][1], k, own)
+
+    for idx, (t0, prio, period, _) in enumerate(ops):
+        if period is None:
+            events[idx] = s.call_at(t0, make_cb(idx, None), priority=prio)
+        else:
+            events[idx] = s.call_every(period, make_cb(idx, period), start_us=t0, priority=prio)
+        ref_items[idx] = ref.add(t0, prio, idx, period)
+    end = 0
+    for step in ends:
+        if step == 0:
+            assert s.step() == _ref_step(ref, ref_run)
+            end = s.now_us
+        else:
+            end = max(end, s.now_us) + step
+            s.run_until(end)
+            ref.run_until(end, ref_run)
+            assert s.now_us == ref.now_us == end
+        assert seen == seen_ref
+        assert s.pending() == sum(1 for i in ref.items if not i[5])
+
+
+def test_timer_group_shares_one_heap_entry_and_counts_every_member():
+    """Six 5 ms timers of one phase and priority are one heap entry; ``events_run`` and
+    ``pending()`` count them one by one; a cancelled member stops, the others go on."""
+    s = Scheduler()
+    seen = []
+    evs = [s.call_every(5_000, lambda now, i=i: seen.append((now, i)), priority=10) for i in range(6)]
+    assert len(s._heap) == 1 and s.pending() == 6
+    s.run_until(10_000)
+    assert seen == [(t, i) for t in (5_000, 10_000) for i in range(6)]
+    assert s.events_run == 12
+    s.cancel(evs[2])
+    s.run_until(15_000)
+    assert [i for t, i in seen if t == 15_000] == [0, 1, 3, 4, 5] and s.pending() == 5
+    assert all(ev.t_us == 20_000 for ev in evs if not ev.cancelled)   # Timer.ticks reads this
+
+
+@pytest.mark.parametrize("what", ["one-shot", "periodic"])
+def test_timer_group_split_by_an_event_queued_one_period_ahead(what):
+    """A member queues an event for exactly the group's next time and priority: one by one, that
+    event runs before the members that had not yet run; the group splits to keep that order."""
+    s = Scheduler()
+    seen = []
+
+    def first(now):
+        seen.append((now, "a"))
+        if now == 5_000:
+            if what == "one-shot":
+                s.call_at(now + 5_000, lambda t: seen.append((t, "e")), priority=10)
+            else:
+                s.call_every(5_000, lambda t: seen.append((t, "x")), priority=10)
+
+    s.call_every(5_000, first, priority=10)
+    s.call_every(5_000, lambda t: seen.append((t, "b")), priority=10)
+    s.call_every(5_000, lambda t: seen.append((t, "c")), priority=10)
+    s.run_until(15_000)
+    new = "e" if what == "one-shot" else "x"
+    assert seen == [(5_000, "a"), (5_000, "b"), (5_000, "c"),
+                    (10_000, "a"), (10_000, new), (10_000, "b"), (10_000, "c"),
+                    (15_000, "a")] + ([(15_000, "x")] if what == "periodic" else []) + [(15_000, "b"), (15_000, "c")]
+
+
+def test_timer_group_split_by_an_earlier_event_at_this_instant():
+    """A member queues an event at this instant with a lower priority number: it runs before the
+    members that had not yet run, as one by one."""
+    s = Scheduler()
+    seen = []
+
+    def first(now):
+        seen.append((now, "a"))
+        s.call_at(now, lambda t: seen.append((t, "isr")), priority=0)
+
+    s.call_every(5_000, first, priority=30)
+    s.call_every(5_000, lambda t: seen.append((t, "b")), priority=30)
+    s.run_until(10_000)
+    assert seen == [(5_000, "a"), (5_000, "isr"), (5_000, "b"), (10_000, "a"), (10_000, "isr"), (10_000, "b")]
