@@ -395,6 +395,9 @@ class Scheduler:
         -----
         The next repetition is queued *before* the callback runs, so events the callback
         schedules for the same future instant (same priority) run after it.
+
+        Periodic events of the same period, phase and priority share one heap entry
+        (:class:`TimerGroup`); the order of callbacks is the same as if each had its own.
         """
         period_us = _index(period_us)
         if period_us <= 0:
