@@ -49,10 +49,18 @@ READER_NODES: Final = nodes_of_kind("position_reader")    #: {"ra": 3, "dec": 4}
 _AXIS_OF_NODE: Final = {node: axis for axis, node in AXIS_NODES.items()}
 
 
+#: node per 11-bit identifier (``bus.protocol.node_of`` as a list: no hashed key per frame)
+_NODE_OF: Final[list[Any]] = [None] * 0x800
+for _cob, _entry in P.COB_TABLE.items():
+    _NODE_OF[_cob] = _entry[2]
+
+
 def _node_of(cob_id: int) -> Any:
     """``bus.protocol.node_of`` (None only for broadcasts, which reach no handler that uses it),
-    called natively: a module-level alias of it would go through Python's call protocol on every
-    frame."""
+    called natively (a module-level alias would go through Python's call protocol on every
+    frame) and read from a list indexed by the identifier (session 23)."""
+    if 0 <= cob_id < 0x800:
+        return _NODE_OF[cob_id]
     return P.node_of(cob_id)
 
 

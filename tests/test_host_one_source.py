@@ -73,3 +73,11 @@ def test_report_scales_counts_with_the_encoder_the_boards_run(tmp_path):
     assert seg["mean_rate_arcsec_s"] == pytest.approx(15.0, abs=0.3)
     assert seg["resolution_pct"] == pytest.approx(1_296_000 / (4_608_000 * 49.0) / 0.1 / 15.0 * 100, rel=1e-3)
     assert abs(seg["peak_error_pct"] - seg["truth"]["peak_error_pct"]) < 2 * seg["resolution_pct"] + 1.0
+
+
+def test_client_node_table_is_the_protocols_node_of():
+    """The host client's per-identifier node table (a list, read per frame) gives
+    ``bus.protocol.node_of`` for every 11-bit identifier: one source, the COB table."""
+    from bus import protocol as P
+    from host import client as C
+    assert [C._node_of(c) for c in range(0x800)] == [P.node_of(c) for c in range(0x800)]
