@@ -40,7 +40,43 @@ import numpy as np
 from plant.calibration.bench_records import CI_SEEDS, DEFAULT_SEEDS, LIBRARY_KINDS, OUT_OF_LIBRARY, make_record
 from plant.effects import EFFECT_KINDS
 
-__all__ = ["run_benchmark", "score", "KEY_PARAMS", "TARGETS", "DEFAULT_SEEDS", "CI_SEEDS"]
+__all__ = ["run_benchmark", "score", "KEY_PARAMS", "TARGETS", "DEFAULT_SEEDS", "CI_SEEDS", "GENERATORS", "generator"]
+
+#: The record generators the benchmark can score, by ``--generator`` name: the module (it imports
+#: nothing from ``plant``) and what it is.
+#:
+#: * ``independent``: :mod:`plant.calibration.bench_records`, written from the equations for this
+#:   benchmark (session 3). The loop's rules were developed on its seeds 1000–1059 and checked on
+#:   0–59 and fresh seeds, so its figures carry that history.
+#: * ``blind``: :mod:`plant.calibration.blind_records`, written in session 24 by a helper that was
+#:   not allowed to read the calibration code, the other generator or docs/calibration.md — only the
+#:   issue's physics and the CSV format. No rule of the loop was developed or tuned on it, so its
+#:   figures are the closest the project has to "records it did not make" (docs/calibration.md,
+#:   "Session 24").
+GENERATORS: dict[str, str] = {
+    "independent": "plant.calibration.bench_records",
+    "blind": "plant.calibration.blind_records",
+}
+
+
+def generator(name: str) -> Any:
+    """The generator module called ``name`` (a key of :data:`GENERATORS`).
+
+    Raises
+    ------
+    ValueError
+        An unknown name (the message lists the known ones), or a generator whose library kinds
+        differ from the ``plant.effects`` registry.
+    """
+    import importlib
+
+    if name not in GENERATORS:
+        raise ValueError(f"--generator {name!r}: expected one of {sorted(GENERATORS)}")
+    mod = importlib.import_module(GENERATORS[name])
+    if set(mod.LIBRARY_KINDS) != set(EFFECT_KINDS):
+        raise ValueError(f"benchmark generator {name!r} kinds {sorted(mod.LIBRARY_KINDS)} differ from plant.effects "
+                         f"{sorted(EFFECT_KINDS)}")
+    return mod
 
 #: Key parameters per kind and the relative tolerance the issue sets (None: reported, no target).
 KEY_PARAMS: dict[str, dict[str, float | None]] = {
@@ -114,9 +150,11 @@ def _param_errors(kind: str, named: dict[str, Any], truth: dict[str, float]) -> 
     return out
 
 
-def score(records: list[dict[str, Any]]) -> dict[str, Any]:
-    """Aggregate per-record outcomes into the benchmark figures (see the module docstring)."""
-    rows = list(LIBRARY_KINDS) + ["clean"] + list(OUT_OF_LIBRARY)
+def score(records: list[dict[str, Any]], out_of_library: tuple[str, ...] = OUT_OF_LIBRARY) -> dict[str, Any]:
+    """Aggregate per-record outcomes into the benchmark figures (see the module docstring).
+    ``out_of_library``: the generator's names of effects outside the library."""
+    ool_names = tuple(out_of_library)
+    rows = list(LIBRARY_KINDS) + ["clean"] + list(ool_names)
     cols = list(LIBRARY_KINDS) + ["none"]
     conf = {r: {c: 0 for c in cols} for r in rows}
     n_exact = 0
@@ -142,7 +180,7 @@ def score(records: list[dict[str, Any]]) -> dict[str, Any]:
             n_clean += 1
             if named:
                 clean_fp.append(r["seed"])
-        if any(h in OUT_OF_LIBRARY for h in r["hidden"]):
+        if any(h in ool_names for h in r["hidden"]):
             n_ool += 1
             ok = not named
             ool_ok.append(ok)
@@ -185,18 +223,21 @@ def score(records: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def run_benchmark(out_dir: str | Path, seeds: tuple[int, ...] | list[int] = DEFAULT_SEEDS, long_samples: int | None = None,
-                  progress=print) -> dict[str, Any]:
+                  progress=print, generator_name: str = "independent") -> dict[str, Any]:
     """Generate, calibrate and score; write ``benchmark.json`` and ``benchmark.md`` into ``out_dir``.
 
     Parameters
     ----------
     out_dir : path
     seeds : sequence of int
-        One record per seed (:func:`plant.calibration.bench_records.make_record`).
+        One record per seed (the generator's ``make_record``).
     long_samples : int, optional
-        Also calibrate one long record of this many samples (memory/time of hour-long logs).
+        Also calibrate one long record of this many samples (memory/time of hour-long logs; always
+        from the ``independent`` generator, which can repeat a trajectory to any length).
     progress : callable
         Called with one line per record.
+    generator_name : str
+        Which record generator (:data:`GENERATORS`): ``independent`` (default) or ``blind``.
 
     Returns
     -------
@@ -206,15 +247,14 @@ def run_benchmark(out_dir: str | Path, seeds: tuple[int, ...] | list[int] = DEFA
     Raises
     ------
     ValueError
-        The generator's kind list differs from the ``plant.effects`` registry.
+        An unknown generator, or its kind list differs from the ``plant.effects`` registry.
     """
-    if set(LIBRARY_KINDS) != set(EFFECT_KINDS):
-        raise ValueError(f"benchmark generator kinds {sorted(LIBRARY_KINDS)} differ from plant.effects {sorted(EFFECT_KINDS)}")
+    gen = generator(generator_name)
     out = Path(out_dir)
     (out / "records").mkdir(parents=True, exist_ok=True)
     records = []
     for seed in seeds:
-        rec = make_record(int(seed))
+        rec = gen.make_record(int(seed))
         csv_path = out / "records" / f"seed_{seed:03d}.csv"
         rec.write_csv(csv_path)
         # a two-mass drive's stiffness, as the engineer would give it from the drive's design
@@ -249,8 +289,9 @@ def run_benchmark(out_dir: str | Path, seeds: tuple[int, ...] | list[int] = DEFA
         progress(f"seed {seed:3d} hidden {','.join(rec.hidden) or 'clean':40s} named {','.join(entry['named']) or '-':40s} "
                  f"{'OK ' if set(entry['named']) == {h for h in rec.hidden if h in LIBRARY_KINDS} else 'BAD'} "
                  f"{entry.get('wall_s', float('nan')):.1f} s {entry.get('error', '')}")
-    summary = score(records)
-    result: dict[str, Any] = {"seeds": [int(s) for s in seeds], "targets": TARGETS, "summary": summary, "records": records}
+    summary = score(records, tuple(gen.OUT_OF_LIBRARY))
+    result: dict[str, Any] = {"generator": generator_name, "generator_module": GENERATORS[generator_name],
+                              "seeds": [int(s) for s in seeds], "targets": TARGETS, "summary": summary, "records": records}
     if long_samples:
         rec = make_record(int(seeds[0]) if seeds else 0, n_samples=int(long_samples))
         csv_path = out / "records" / f"long_{long_samples}.csv"
@@ -289,7 +330,8 @@ def _pct(x) -> str:
 def markdown(result: dict[str, Any]) -> str:
     """``benchmark.md``: the summary, the confusion matrix and the per-record table."""
     s = result["summary"]
-    L = ["# Calibration benchmark (independent generator)", "",
+    L = [f"# Calibration benchmark (generator `{result.get('generator', 'independent')}`: "
+         f"`{result.get('generator_module', GENERATORS['independent'])}`)", "",
          f"Seeds: {result['seeds'][0]}…{result['seeds'][-1]} ({s['n_records']} records).", "",
          f"- exact set of effects named right: **{s['n_exact']}/{s['n_records']} = {_pct(s['exact_set_accuracy'])}** (target ≥ 90 %)",
          f"- clean records with an invented effect: **{len(s['clean']['false_positive_seeds'])}/{s['clean']['n']}** "

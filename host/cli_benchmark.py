@@ -1,8 +1,9 @@
 """``schmidt-fil benchmark-calibration``: the calibration loop on records it has never seen.
 
-``benchmark-calibration --out DIR [--seeds 0-59 | --ci] [--long N]`` generates the records of the
-independent generator (:mod:`plant.calibration.bench_records`, which imports nothing from
-``plant``), runs ``calibrate`` on each in a child process and writes ``benchmark.json`` and
+``benchmark-calibration --out DIR [--seeds 0-59 | --ci] [--generator independent|blind] [--long N]``
+generates the records of an independent generator (:mod:`plant.calibration.bench_records`, or with
+``--generator blind`` :mod:`plant.calibration.blind_records`, written without reading the loop;
+both import nothing from ``plant``), runs ``calibrate`` on each in a child process and writes ``benchmark.json`` and
 ``benchmark.md`` (confusion matrix, exact-set accuracy, false positives, key-parameter errors,
 time and peak memory per record; :mod:`host.calibration_benchmark`). The default seed list is
 fixed, so the figures are reproducible.
@@ -53,6 +54,9 @@ def add_subparser(subparsers: argparse._SubParsersAction) -> None:
     g = p.add_mutually_exclusive_group()
     g.add_argument("--seeds", metavar="LIST", help="seeds, e.g. 0-59 or 0,5,30 (default: the fixed list 0-59)")
     g.add_argument("--ci", action="store_true", help="the small fixed subset CI runs")
+    p.add_argument("--generator", default="independent", metavar="NAME",
+                   help="record generator: 'independent' (default; the fixed seeds of the figures in README) or 'blind' "
+                        "(written without reading the calibration code; docs/calibration.md, 'Session 24')")
     p.add_argument("--long", type=int, metavar="N", default=None,
                    help="also calibrate one long record of N samples (e.g. 1000000) and report its time and peak memory")
     p.set_defaults(func=run)
@@ -63,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
     from host.calibration_benchmark import CI_SEEDS, DEFAULT_SEEDS, run_benchmark
 
     seeds = parse_seeds(args.seeds) if args.seeds else (list(CI_SEEDS) if args.ci else list(DEFAULT_SEEDS))
-    res = run_benchmark(args.out, seeds, long_samples=args.long)
+    res = run_benchmark(args.out, seeds, long_samples=args.long, generator_name=args.generator)
     s = res["summary"]
     print(f"exact set {s['n_exact']}/{s['n_records']}; clean false positives {len(s['clean']['false_positive_seeds'])}/{s['clean']['n']}; "
           f"out-of-library ok {s['out_of_library']['ok']}/{s['out_of_library']['n']}")
