@@ -432,7 +432,7 @@ def _beats_gear_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: L
         return None
     loss, swing = cache["loss"]
     g, z = cv_compare(loss, c["loss"])
-    c["gain_over_spring_pct"] = g
+    c["gain_over_spring_pct"], c["z_over_spring"] = g, z
     if g > 0:
         return None
     return (f"the declared gear spring (K = {k:.4g}, swing 2Fc/K = {swing:.3g}) in the current model predicts held-out "
@@ -1105,7 +1105,7 @@ def run_loop(
               f"cross-validated mean squared error falls by {chosen['cv_gain_pct']:.1f} % (z = {chosen['cv_z']:.1f}); it explains "
               f"{chosen['explained_pct']:.1f} % of the residual variance."
               + (f" Won against: {won}." if won else "")
-              + (f" It also predicts better than the declared gear spring alone (gain {chosen['gain_over_spring_pct']:.1f} %)."
+              + (f" It also predicts better than the declared gear spring alone (gain {chosen['gain_over_spring_pct']:.1f} %, z = {chosen['z_over_spring']:.1f}; a point estimate is the test here)."
                  if "gain_over_spring_pct" in chosen else "")
               + (f" Its direction-dependent viscous friction predicts better than a symmetric one with the Coulomb level "
                  f"split (gain {chosen['gain_over_coulomb_split_pct']:.1f} %, z = {chosen['z_over_coulomb_split']:.1f})."
