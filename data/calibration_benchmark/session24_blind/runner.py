@@ -10,8 +10,9 @@ sys.path.insert(0, os.getcwd())
 GEN = {"independent": "plant.calibration.bench_records", "blind": "plant.calibration.blind_records"}
 
 
-def one(job):
-    gen, arg = job
+def calibrate_record(gen, arg):
+    """Generate ``SEED[:hidden,...]`` with generator ``gen``, calibrate it as the benchmark does (the
+    stiffness of a two-mass record declared); returns (generator module, record, report, wall s)."""
     import importlib, tempfile, pathlib
     from plant.calibration.report import calibrate
     mod = importlib.import_module(GEN[gen])
@@ -22,6 +23,14 @@ def one(job):
     K = r.meta.get("two_mass", {}).get("stiffness_nm_rad")
     t0 = time.time()
     rep = calibrate(str(d / "rec.csv"), str(d / "out"), plots=False, gear_stiffness=K)
+    return mod, r, rep, time.time() - t0
+
+
+def one(job):
+    gen, arg = job
+    mod, r, rep, wall = calibrate_record(gen, arg)
+    seed = arg.partition(":")[0]
+    K = r.meta.get("two_mass", {}).get("stiffness_nm_rad")
     tw = r.truth.get("backlash", {}).get("width_rad")
     bl = [e for e in rep["effects"] if e["kind"] == "backlash"]
     werr = gerr = None
@@ -34,7 +43,7 @@ def one(job):
             "exact": set(named) == {h for h in r.hidden if h in lib},
             "unexplained": [u.get("kind") or u.get("domain") for u in rep["unexplained"]],
             "undecided": [u["kind"] for u in rep.get("undecided", [])], "K": K,
-            "width_err": werr, "gap_err": gerr, "wall_s": time.time() - t0}
+            "width_err": werr, "gap_err": gerr, "wall_s": wall}
 
 
 if __name__ == "__main__":
