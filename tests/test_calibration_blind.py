@@ -20,10 +20,11 @@ from plant.calibration import blind_records as blind
 def _first_seed_of_each_category() -> list[int]:
     """The first seed in 0–59 of each single-kind, clean and out-of-library hidden set."""
     seen: dict[tuple[str, ...], int] = {}
+    hidden = blind.plan()
     for s in blind.BLIND_SEEDS:
-        h = tuple(blind.plan()[s % 60])
-        if len(h) <= 1 and h not in seen:
-            seen[h] = s
+        h = tuple(hidden[s % len(hidden)])
+        if len(h) <= 1:
+            seen.setdefault(h, s)
     return sorted(seen.values())
 
 
