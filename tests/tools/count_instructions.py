@@ -12,9 +12,14 @@ Usage (needs ``valgrind``; ≈ 1–2 min)::
     python tests/tools/count_instructions.py [--network full] [--seconds 2]
 
 The child process builds the network, runs a warm-up (1 s simulated, numba's kernels loaded),
-builds it again, runs 0.2 s, then runs ``--seconds`` inside ``functools.reduce``; callgrind
-collects only inside that call (``--toggle-collect=functools_reduce*``: nothing else in the
-emulator calls ``reduce``). Prints instructions per simulated second, in millions.
+builds it again, runs 0.2 s, then runs ``--seconds`` inside ``math.fsum`` (through a one-item
+``map``); callgrind collects only inside that call (``--toggle-collect=math_fsum``). The marker
+must be a function that nothing else in the process calls, before the span or in it: until
+session 25 it was ``functools.reduce``, which numba's compiler calls (``reduce(operator.or_, …)``
+in its dataflow analysis), so on the first run after an install, with numba's cache empty, the
+kernels' compilation during the warm-up was counted too (107.6–109.4 M against 100.2 M on the
+next run; docs/performance.md, "Session 25"). Prints instructions per simulated second, in
+millions.
 """
 
 from __future__ import annotations
@@ -30,7 +35,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 
 CHILD = r"""
-import functools, sys
+import math, sys
 sys.path.insert(0, {root!r})
 from host.cli_bench import DEFAULT_SCENARIO, _with_boards, measure
 from host.network import build_network
@@ -47,7 +52,7 @@ seg = sc.segments[0]
 tel.client.command_axis(seg.axis if seg.axis != "both" else "ra", seg.mode, seg.direction, seg.rate_arcsec_s)
 tel.scheduler.run_until(tel.scheduler.now_us + 200_000)
 t0 = tel.scheduler.now_us
-functools.reduce(lambda a, b: tel.scheduler.run_until(t0 + int(sec * 1e6)), [0, 0])
+math.fsum(map(lambda _: (tel.scheduler.run_until(t0 + int(sec * 1e6)), 0.0)[1], [0]))
 tel.close()
 from bus._native import native_modules
 print("native", len(native_modules()))
@@ -70,7 +75,7 @@ def count(network: str, seconds: float, keep: str | None = None) -> tuple[int, i
         script.write_text(CHILD.format(root=str(ROOT), network=network, seconds=seconds))
         out = subprocess.run(
             ["valgrind", "--tool=callgrind", f"--callgrind-out-file={tmp}/cg.out",
-             "--toggle-collect=functools_reduce*", sys.executable, str(script)],
+             "--toggle-collect=math_fsum", sys.executable, str(script)],
             capture_output=True, text=True, cwd=tmp)
         if keep:
             shutil.copyfile(f"{tmp}/cg.out", keep)
