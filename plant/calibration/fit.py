@@ -59,7 +59,9 @@ MAX_FIT_SAMPLES = 60_000
 #: Harmonics of a periodic motion's fundamental in the ``"phase_function"`` nuisance (assumed: the
 #: smooth stand-ins documented on periodic records — gravity, a line at the motion's own frequency
 #: — live in the first three; gravity over a 180° travel, ``sin(A sin φ)`` with ``A = π/2``, has
-#: > 99 % of its power in harmonics 1–3, Bessel ``J1..J3``; docs/calibration.md, session 18).
+#: > 99 % of its power in harmonics 1–3, Bessel ``J1..J3``; docs/calibration.md, session 18). It is
+#: the floor: a motion whose velocity needs more harmonics gets more (``ModelSpec.phase_harmonics``,
+#: :func:`plant.calibration.loop.motion_harmonics`, session 25).
 PHASE_HARMONICS = 3
 
 
@@ -284,11 +286,14 @@ class ModelSpec:
     #   viscous terms times τ and τ², τ = normalised time), "delay" (the jerk column: a shift of the
     #   torque against the motion, to first order), "velocity_function" (piecewise-linear in |dq| per
     #   direction, used only to test whether a time line is a velocity-dependent error),
-    #   "phase_function" (sin, cos of k·2π·phase_hz·t, k = 1..PHASE_HARMONICS: any smooth function of
+    #   "phase_function" (sin, cos of k·2π·phase_hz·t, k = 1..phase_harmonics: any smooth function of
     #   a periodic motion's phase, used only to test whether a smooth term stands in for the model's
     #   own error on a periodic trajectory, loop.periodic_motion_hz)
     #: fundamental [Hz] of a periodic motion, for the ``"phase_function"`` nuisance
     phase_hz: float | None = None
+    #: harmonics of ``phase_hz`` in the ``"phase_function"`` nuisance: as many as the motion's velocity
+    #: needs (loop.periodic_motion_hz), at least :data:`PHASE_HARMONICS`
+    phase_harmonics: int = PHASE_HARMONICS
     gear_stiffness: float | None = None
     spring_coulomb: float | None = None
 
@@ -515,7 +520,7 @@ def design_full(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None, t=No
         elif nz == "phase_function":
             if spec.phase_hz is None:
                 raise ValueError("the phase_function nuisance needs ModelSpec.phase_hz")
-            for k in range(1, PHASE_HARMONICS + 1):
+            for k in range(1, max(int(spec.phase_harmonics), PHASE_HARMONICS) + 1):
                 x = 2 * np.pi * k * spec.phase_hz * t
                 names += [f"nz_phase{k}_sin", f"nz_phase{k}_cos"]
                 cols += [np.sin(x), np.cos(x)]

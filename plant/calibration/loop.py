@@ -29,13 +29,15 @@ Algorithm
    description wins only if it predicts significantly better than the best library candidate. A
    time-periodic candidate at a frequency where the motion itself has a line must pass the test
    again with a flexible velocity function in both models (so a velocity-dependent model error
-   cannot pass as a disturbance). On a periodic motion (:func:`periodic_motion_hz`: ``PHASE_HARMONICS``
-   harmonics of one fundamental explain ≥ ``PERIODIC_MIN_SHARE`` of the velocity, ≥ 3 cycles) a
+   cannot pass as a disturbance). On a periodic motion (:func:`periodic_motion_hz`: K harmonics of
+   one fundamental explain ≥ ``PERIODIC_MIN_SHARE`` of the velocity, ≥ 3 cycles, K the smallest
+   number from ``PHASE_HARMONICS`` to ``PERIODIC_MAX_HARMONICS`` that does: a sinusoid needs 3, a
+   back-and-forth sweep's square-ish velocity up to 9) a
    gravity, position-periodic or time-periodic candidate must pass the test again with those
-   harmonics in both models (the phase guard: position, velocity, acceleration and the motion's
+   K harmonics in both models (the phase guard: position, velocity, acceleration and the motion's
    own lines are then functions of one phase, and a smooth term can stand in for the model's
    error along it); a time-periodic candidate within one frequency bin (``1/T``, the record's
-   Rayleigh resolution) of one of those harmonics is refused outright. Transitions (pre-sliding
+   Rayleigh resolution) of one of those K harmonics is refused outright. Transitions (pre-sliding
    displacement, backlash width) under :data:`MIN_TRANSITION_COUNTS` position quanta are not
    resolved and not added, nor are time or position lines whose amplitude, as the inertial torque
    of a motion, is a displacement under that many quanta (:func:`_line_resolved`). A candidate whose
@@ -66,7 +68,8 @@ from plant.calibration.fit import (PHASE_HARMONICS, TRANSFERABLE_NUISANCE, FitRe
 from plant.effects import EFFECT_KINDS, Effect, build_effect
 
 __all__ = ["LoopConfig", "AcceptedEffect", "LoopResult", "fit_baseline", "run_loop", "delta_bic", "cv_compare", "min_events",
-           "KINDS", "backlash_gap", "check_stiffness", "friction_levels", "periodic_motion_hz"]
+           "KINDS", "backlash_gap", "check_stiffness", "friction_levels", "periodic_motion_hz", "periodic_motion",
+           "motion_harmonics", "PERIODIC_MAX_HARMONICS"]
 
 #: The effect kinds the loop may name: exactly the :mod:`plant.effects` registry.
 KINDS: tuple[str, ...] = tuple(EFFECT_KINDS)
@@ -785,19 +788,53 @@ def motion_share(prep: Prepared, f_hz: float) -> float:
     return best
 
 
-#: A motion is periodic when the ``PHASE_HARMONICS`` harmonics of one fundamental explain at least
-#: this share of the velocity's variance (assumed: on the benchmark's fixed seeds sinusoid
-#: trajectories reach ≥ 0.987, square-ish back-and-forth sweeps 0.925–0.930, staircases and tracking
-#: runs far less, EMPS 0.936; fixed before any calibration was run, docs/calibration.md, session 18).
+#: A motion is periodic when K harmonics of one fundamental (K from ``PHASE_HARMONICS`` to
+#: :data:`PERIODIC_MAX_HARMONICS`) explain at least this share of the velocity's variance (assumed: on
+#: the benchmark's fixed seeds sinusoid trajectories reach ≥ 0.987 with 3 harmonics, square-ish
+#: back-and-forth sweeps 0.925–0.930 with 3, staircases and tracking runs far less, EMPS 0.936 with 3;
+#: fixed before any calibration was run, docs/calibration.md, session 18).
 PERIODIC_MIN_SHARE = 0.95
+#: At most this many harmonics of the fundamental are used to recognise a periodic motion (and then
+#: in the phase guard). Why 15 (session 25, fixed before its runs from the physics, not from a score):
+#: the limit of a back-and-forth sweep at constant speed is a square-wave velocity, whose odd
+#: harmonics carry ``8/π²·Σ 1/k²`` of its variance — K = 3: 90.1 %, 5: 93.3 %, 7: 94.96 %, 9: 96.0 %;
+#: finite accelerations only lower the high harmonics, so a sweep needs at most 9. The cap leaves
+#: room above 9 for sweeps with dwells at the ends or unequal speeds (pulse-like velocity, even
+#: harmonics) and stops there, so that "periodic" keeps meaning a few lines of one fundamental and
+#: not a free Fourier series of the record.
+PERIODIC_MAX_HARMONICS = 15
 #: ... and when the record holds at least this many of its periods (fewer: every smooth function of
 #: time would count as "periodic").
 PERIODIC_MIN_CYCLES = 3.0
 
 
-def periodic_motion_hz(prep: Prepared) -> tuple[float | None, float]:
-    """The fundamental [Hz] of a periodic motion, or None, and the share of the velocity's variance
-    its ``PHASE_HARMONICS`` harmonics explain (0..1).
+def _harmonic_shares(t: np.ndarray, v: np.ndarray, var: float, f: float, k_max: int) -> np.ndarray:
+    """Share of the variance ``var`` of ``v`` (0..1) explained by a constant and the harmonics
+    1..K of ``f`` [Hz] on the times ``t``, for K = 1..``k_max`` (entry K − 1): one QR of the
+    columns [1, sin, cos of k·2π f t, k = 1..k_max] in that order, whose leading 2K + 1 columns of Q
+    span the first K harmonics."""
+    cols = [np.ones_like(t)]
+    for k in range(1, k_max + 1):
+        cols += [np.sin(2 * np.pi * k * f * t), np.cos(2 * np.pi * k * f * t)]
+    q, _ = np.linalg.qr(np.column_stack(cols))
+    c2 = (q.T @ v) ** 2
+    vv = float(v @ v)
+    return np.array([1.0 - (vv - float(c2[: 2 * k + 1].sum())) / var for k in range(1, k_max + 1)])
+
+
+def periodic_motion(prep: Prepared) -> tuple[float | None, float, int]:
+    """The fundamental [Hz] of a periodic motion, or None; the share of the velocity's variance its
+    harmonics explain (0..1); and the number K of harmonics that reach it.
+
+    A motion is periodic when K harmonics of one fundamental explain ≥ :data:`PERIODIC_MIN_SHARE` of
+    the velocity's variance with ≥ ``PERIODIC_MIN_CYCLES`` cycles in the record. K is the smallest
+    number from ``PHASE_HARMONICS`` (3, session 18's guard) to :data:`PERIODIC_MAX_HARMONICS` (15)
+    for which a fundamental reaches that share, and the fundamental is the best one at that K: a
+    sinusoid needs 3 (as before session 25), a back-and-forth sweep, whose velocity is close to a
+    square wave, needs up to 9 (session 25). K starts at 3, so a motion periodic with 3 harmonics is
+    found at the same fundamental as before. Harmonics beyond the third are kept below a quarter of the
+    sampling rate of the rows used (half their Nyquist frequency, well inside the fit's decimation
+    pass band).
 
     The fundamental is refined on a ±3 % grid around the full-rate velocity spectrum's strongest peak
     (with at least ``PERIODIC_MIN_CYCLES`` cycles in the record) and around half and a third of it
@@ -808,9 +845,11 @@ def periodic_motion_hz(prep: Prepared) -> tuple[float | None, float]:
 
     Returns
     -------
-    (float or None, float)
-        The fundamental [Hz] when the share reaches :data:`PERIODIC_MIN_SHARE`, else None; the best
-        share found (0..1).
+    (float or None, float, int)
+        The fundamental [Hz] when the share reaches :data:`PERIODIC_MIN_SHARE`, else None; the share
+        at that fundamental and K (if not periodic: the best share found with
+        :data:`PERIODIC_MAX_HARMONICS` harmonics or as many as fit below the limit); K (if not
+        periodic: ``PHASE_HARMONICS``).
     """
     # evenly spaced, unfiltered times: the full-rate rows, one per decimation step (the decimated
     # time base t_dec passed through the decimation filter, which bends it at the ends)
@@ -819,34 +858,66 @@ def periodic_motion_hz(prep: Prepared) -> tuple[float | None, float]:
     v = prep.dq[::step]
     n = t.size
     if n < 16 or t[-1] <= 0:
-        return None, 0.0
+        return None, 0.0, PHASE_HARMONICS
     v0 = v - v.mean()
     var = float(v0 @ v0)
     if var <= 0:
-        return None, 0.0
+        return None, 0.0, PHASE_HARMONICS
+    fs = 1.0 / (prep.dt_s * step)
     freqs = np.fft.rfftfreq(n, d=prep.dt_s * step)
     spec = np.abs(np.fft.rfft(v0 * np.hanning(n)))
     # (3 % slack: a record of exactly three periods is periodic; the grid below is ±3 % wide)
     min_cycles = 0.97 * PERIODIC_MIN_CYCLES
     ok = freqs >= min_cycles / t[-1]
     if not ok.any():
-        return None, 0.0
+        return None, 0.0, PHASE_HARMONICS
     f_peak = float(freqs[int(np.argmax(np.where(ok, spec, 0.0)))])
-    best_f, best_share = None, 0.0
+    grid: list[tuple[float, np.ndarray]] = []
     for div in (1.0, 2.0, 3.0):
         for f in np.linspace(0.97 * f_peak / div, 1.03 * f_peak / div, 61):
             if f * t[-1] < min_cycles:
                 continue
-            cols = [np.ones_like(t)]
-            for k in range(1, PHASE_HARMONICS + 1):
-                cols += [np.sin(2 * np.pi * k * f * t), np.cos(2 * np.pi * k * f * t)]
-            X = np.column_stack(cols)
-            coef, *_ = np.linalg.lstsq(X, v, rcond=None)
-            r = v - X @ coef
-            share = 1.0 - float(r @ r) / var
-            if share > best_share:
-                best_f, best_share = float(f), share
-    return (best_f if best_share >= PERIODIC_MIN_SHARE else None), best_share
+            k_max = max(PHASE_HARMONICS, min(PERIODIC_MAX_HARMONICS, int(0.25 * fs / f)))
+            grid.append((float(f), _harmonic_shares(t, v, var, float(f), k_max)))
+    if not grid:
+        return None, 0.0, PHASE_HARMONICS
+    for k in range(PHASE_HARMONICS, PERIODIC_MAX_HARMONICS + 1):
+        best_f, best_share = None, 0.0
+        for f, sh in grid:
+            if sh.size >= k and sh[k - 1] > best_share:
+                best_f, best_share = f, float(sh[k - 1])
+        if best_f is not None and best_share >= PERIODIC_MIN_SHARE:
+            return best_f, best_share, k
+    return None, max(float(sh[-1]) for _, sh in grid), PHASE_HARMONICS
+
+
+def periodic_motion_hz(prep: Prepared) -> tuple[float | None, float]:
+    """The fundamental [Hz] of a periodic motion, or None, and the share of the velocity's variance
+    its harmonics explain (0..1): the first two of :func:`periodic_motion`."""
+    f, share, _ = periodic_motion(prep)
+    return f, share
+
+
+def motion_harmonics(prep: Prepared, f_hz: float) -> int:
+    """The number K of harmonics of the fundamental ``f_hz`` that the phase guard uses: the smallest
+    K from ``PHASE_HARMONICS`` to :data:`PERIODIC_MAX_HARMONICS` (beyond the third, below a quarter of
+    the rows' sampling rate) whose share of the velocity's variance reaches :data:`PERIODIC_MIN_SHARE`, as
+    :func:`periodic_motion` finds it; else ``PHASE_HARMONICS``. The model's error along the phase is
+    a function of the motion's state, at the least of its velocity: as many harmonics as the
+    velocity needs are needed to describe it (session 25)."""
+    step = max(int(prep.decim), 1)
+    t = prep.t[::step] - prep.t[0]
+    v = prep.dq[::step]
+    v0 = v - v.mean()
+    var = float(v0 @ v0)
+    k_max = max(PHASE_HARMONICS, min(PERIODIC_MAX_HARMONICS, int(0.25 / (prep.dt_s * step * f_hz))))
+    if var <= 0:
+        return PHASE_HARMONICS
+    sh = _harmonic_shares(t, v, var, f_hz, k_max)
+    for k in range(PHASE_HARMONICS, k_max + 1):
+        if sh[k - 1] >= PERIODIC_MIN_SHARE:
+            return k
+    return PHASE_HARMONICS
 
 
 def time_shift_diagnostic(prep: Prepared, fit: FitResult) -> dict[str, float]:
@@ -939,14 +1010,15 @@ def _ool_entry(kind: str, share: float, gain: float, z: float, shift_s: float | 
 
 
 def _gain_with_nuisance(prep: Prepared, cur: ModelSpec, cand: ModelSpec, nuisance: str, k_folds: int,
-                        phase_hz: float | None = None) -> tuple[float, float]:
+                        phase_hz: float | None = None, phase_harmonics: int = PHASE_HARMONICS) -> tuple[float, float]:
     """:func:`cv_compare` of the current model and the candidate, both with the nuisance description
-    ``nuisance`` added (and ``phase_hz`` set for ``"phase_function"``): (gain %, z)."""
+    ``nuisance`` added (and ``phase_hz``, ``phase_harmonics`` set for ``"phase_function"``): (gain %, z)."""
     s0, s1 = cur.copy(), cand.copy()
     for sp in (s0, s1):
         sp.nuisance.append(nuisance)
         if phase_hz is not None:
             sp.phase_hz = phase_hz
+            sp.phase_harmonics = phase_harmonics
     return cv_compare(cv_losses(prep, s0, k_folds), cv_losses(prep, s1, k_folds))
 
 
@@ -988,9 +1060,11 @@ def run_loop(
     speed_typ = typical_speed(prep)
     undecided: dict[str, dict[str, Any]] = {}
     phase_hz, phase_share = periodic_motion_hz(prep)
+    # the guard's harmonics: as many as the motion's velocity needs (session 25), at least PHASE_HARMONICS
+    phase_k = motion_harmonics(prep, phase_hz) if phase_hz is not None else PHASE_HARMONICS
     t_span = float(prep.t[-1] - prep.t[0])
     if phase_hz is not None:
-        log.append(f"periodic motion: {PHASE_HARMONICS} harmonics of {phase_hz:.5g} Hz explain {100 * phase_share:.1f} % of the "
+        log.append(f"periodic motion: {phase_k} harmonics of {phase_hz:.5g} Hz explain {100 * phase_share:.1f} % of the "
                    "velocity; smooth position and time terms must also predict with them in both models (phase guard)")
     step = 0
     while len(accepted) < cfg.max_effects and step < cfg.max_effects + 2:
@@ -1040,17 +1114,18 @@ def run_loop(
             if why is None and phase_hz is not None and c["kind"] == "time_periodic":
                 # within one frequency bin (1/T, Rayleigh) of a guarded harmonic: not resolvable from it
                 f_c = c["fit"].spec.time_frequencies[c["slot"]]
-                k_near = max(1, min(PHASE_HARMONICS, round(f_c / phase_hz)))
+                k_near = max(1, min(phase_k, round(f_c / phase_hz)))
                 if abs(f_c - k_near * phase_hz) < 1.0 / t_span:
-                    why = (f"the motion is periodic ({PHASE_HARMONICS} harmonics of {phase_hz:.4g} Hz explain "
+                    why = (f"the motion is periodic ({phase_k} harmonics of {phase_hz:.4g} Hz explain "
                            f"{100 * phase_share:.1f} % of the velocity) and the line at {f_c:.5g} Hz lies within one frequency "
                            f"bin (1/T = {1.0 / t_span:.3g} Hz) of its harmonic {k_near}: this record cannot resolve it from "
                            "a function of the motion's phase")
             if why is None and phase_hz is not None and c["kind"] in PHASE_GUARDED:
                 # a periodic motion: must still predict with any smooth function of its phase in both models
-                g, z = _gain_with_nuisance(prep, cur.spec, c["fit"].spec, "phase_function", cfg.k_folds, phase_hz=phase_hz)
+                g, z = _gain_with_nuisance(prep, cur.spec, c["fit"].spec, "phase_function", cfg.k_folds, phase_hz=phase_hz,
+                                      phase_harmonics=phase_k)
                 if not predicts(g, z, zc):
-                    why = (f"the motion is periodic ({PHASE_HARMONICS} harmonics of {phase_hz:.4g} Hz explain "
+                    why = (f"the motion is periodic ({phase_k} harmonics of {phase_hz:.4g} Hz explain "
                            f"{100 * phase_share:.1f} % of the velocity) and with those harmonics in the model the term no "
                            f"longer predicts (gain {g:.2f} %, z = {z:.1f}): on this record it cannot be told apart from a "
                            "smooth error of the model along the motion's phase")
