@@ -292,7 +292,7 @@ class ModelSpec:
     #: fundamental [Hz] of a periodic motion, for the ``"phase_function"`` nuisance
     phase_hz: float | None = None
     #: harmonics of ``phase_hz`` in the ``"phase_function"`` nuisance: as many as the motion's velocity
-    #: needs (loop.periodic_motion_hz), at least :data:`PHASE_HARMONICS`
+    #: needs (loop.motion_harmonics), at least :data:`PHASE_HARMONICS`
     phase_harmonics: int = PHASE_HARMONICS
     gear_stiffness: float | None = None
     spring_coulomb: float | None = None
