@@ -67,3 +67,21 @@ def test_a_random_walk_is_not_periodic(seed):
     v = 0.3 * v / np.max(np.abs(v))
     f, share, _ = loop.periodic_motion(prepare(_record(v)))
     assert f is None and share < loop.PERIODIC_MIN_SHARE
+
+
+def test_a_sweep_of_few_cycles_is_found_between_spectral_bins():
+    """3.6 cycles: the spectrum's bins (1/T) are 28 % of the fundamental apart, so the strongest bin
+    is ≈ 11 % off and a ±3 % grid around it misses; the ±1-bin pass finds it (session 25)."""
+    v, f0 = _sweep(period_s=10.0, cycles=3.6)
+    prep = prepare(_record(v))
+    f, share, k = loop.periodic_motion(prep)
+    assert f is not None, f"not periodic: best share {share:.3f}"
+    assert f == pytest.approx(f0, rel=0.01)
+    assert share >= loop.PERIODIC_MIN_SHARE and k <= loop.PERIODIC_MAX_HARMONICS
+    # the strongest bin itself is more than 3 % away (what made the old grid miss)
+    t = prep.t - prep.t[0]
+    spec = np.abs(np.fft.rfft((prep.dq - prep.dq.mean()) * np.hanning(t.size)))
+    freqs = np.fft.rfftfreq(t.size, d=prep.dt_s)
+    ok = freqs >= 0.97 * loop.PERIODIC_MIN_CYCLES / t[-1]
+    f_bin = freqs[int(np.argmax(np.where(ok, spec, 0.0)))]
+    assert abs(f_bin / f0 - 1) > 0.03

@@ -838,7 +838,9 @@ def periodic_motion(prep: Prepared) -> tuple[float | None, float, int]:
 
     The fundamental is refined on a ±3 % grid around the full-rate velocity spectrum's strongest peak
     (with at least ``PERIODIC_MIN_CYCLES`` cycles in the record) and around half and a third of it
-    (the peak may be a harmonic); the share is measured on the full-rate velocity taken every
+    (the peak may be a harmonic), and, since a bin (1/T) is wider than ±3 % when the record holds
+    fewer than about 17 cycles, on ± one bin around each of them (41 points, then 21 around the
+    best of those at the most harmonics; session 25); the share is measured on the full-rate velocity taken every
     decimation step (evenly spaced, standstills included). On a periodic motion position,
     velocity, acceleration and the motion's own time lines are functions of one phase, so a smooth
     term can stand in for the model's error (see :func:`run_loop`, the phase guard).
@@ -873,12 +875,32 @@ def periodic_motion(prep: Prepared) -> tuple[float | None, float, int]:
         return None, 0.0, PHASE_HARMONICS
     f_peak = float(freqs[int(np.argmax(np.where(ok, spec, 0.0)))])
     grid: list[tuple[float, np.ndarray]] = []
-    for div in (1.0, 2.0, 3.0):
-        for f in np.linspace(0.97 * f_peak / div, 1.03 * f_peak / div, 61):
+
+    def add(fs_hz) -> None:
+        for f in fs_hz:
             if f * t[-1] < min_cycles:
                 continue
             k_max = max(PHASE_HARMONICS, min(PERIODIC_MAX_HARMONICS, int(0.25 * fs / f)))
             grid.append((float(f), _harmonic_shares(t, v, var, float(f), k_max)))
+
+    bin_hz = 1.0 / t[-1]
+    for div in (1.0, 2.0, 3.0):
+        f_c = f_peak / div
+        add(np.linspace(0.97 * f_c, 1.03 * f_c, 61))
+        # With few cycles a bin (1/T) is wider than ±3 %: the fundamental lies within one bin of
+        # the strongest one (session 25, second change). A coarse pass over ±1 bin, then a fine
+        # pass over ± one coarse step around its best fundamental at the most harmonics.
+        lo = max(f_c - bin_hz, min_cycles / t[-1])
+        hi = f_c + bin_hz
+        if hi <= lo:
+            continue
+        n0 = len(grid)
+        add(np.linspace(lo, hi, 41))
+        coarse = grid[n0:]
+        if coarse:
+            f_best = max(coarse, key=lambda g: g[1][-1])[0]
+            d = (hi - lo) / 40
+            add(np.linspace(f_best - d, f_best + d, 21))
     if not grid:
         return None, 0.0, PHASE_HARMONICS
     for k in range(PHASE_HARMONICS, PERIODIC_MAX_HARMONICS + 1):
