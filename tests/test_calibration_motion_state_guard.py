@@ -1,18 +1,23 @@
-"""Session 26: a time line at a line of the motion must predict beyond a function of the motion's
-state — its velocity *and* its position (docs/calibration.md "Session 26").
+"""Session 26: a time line at the motion's own frequency on a sinusoid of fewer than 3 cycles — a known
+defect, not fixed (docs/calibration.md "Session 26").
 
 On a sinusoidal motion, ``q = A(1 − cos ωt)`` and ``dq = Aω sin ωt``, so a torque line at ω is
 ``a·dq + b·q`` exactly: a torque that depends on the position (a cable wrap's spring, an
 unmodelled imbalance over a short travel) looks like a disturbance at the motion's own frequency.
 With fewer than 3 cycles the phase guard of session 18 is off, and the test against a flexible
-function of the velocity alone let such a line through (blind record 284). Records written in the
-test from the equations (open loop, the torque computed from a prescribed motion; no code of
-``plant/`` makes them).
+function of the velocity alone lets such a line through (blind record 284). Adding hinges in the
+position to that test fixed this record and held the benchmark bars, but a real 0.3 Hz line on a
+staircase was then refused (tests/test_calibration_phase_guard.py): under blocked cross-validation
+position hinges extrapolate badly to blocks whose positions the other blocks barely visit, so the
+change was not kept. The first test records the defect as a strict xfail; the second checks that a
+disturbance away from the motion's lines is found. Records written in the test from the equations
+(open loop, the torque computed from a prescribed motion; no code of ``plant/`` makes them).
 """
 
 import math
 
 import numpy as np
+import pytest
 
 from plant.calibration import loop
 from plant.calibration.fit import prepare
@@ -30,6 +35,9 @@ def _near(f_hz, f0, t_span):
     return abs(f_hz - f0) < 1.0 / t_span
 
 
+@pytest.mark.xfail(strict=True, reason="known defect (session 26): a position-linear torque on a sinusoid of < 3 "
+                   "cycles is named a time line at the motion's frequency; the position-hinge guard that fixed it "
+                   "refused a real line on a staircase and was not kept")
 def test_a_position_dependent_torque_is_not_named_a_line_at_the_motions_frequency():
     v, f0 = _sinusoid_motion()
     spring_nm_rad = 2.0  # assumed: a cable-wrap-like torque, 2 N·m per rad about the middle of the travel

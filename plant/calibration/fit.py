@@ -286,9 +286,6 @@ class ModelSpec:
     #   viscous terms times τ and τ², τ = normalised time), "delay" (the jerk column: a shift of the
     #   torque against the motion, to first order), "velocity_function" (piecewise-linear in |dq| per
     #   direction, used only to test whether a time line is a velocity-dependent error),
-    #   "position_function" (hinges in q at its 5–95 % quantiles; with "velocity_function", the
-    #   flexible function of the motion's state that a time line at a line of the motion must beat,
-    #   session 26),
     #   "phase_function" (sin, cos of k·2π·phase_hz·t, k = 1..phase_harmonics: any smooth function of
     #   a periodic motion's phase, used only to test whether a smooth term stands in for the model's
     #   own error on a periodic trajectory, loop.periodic_motion_hz)
@@ -520,13 +517,6 @@ def design_full(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None, t=No
                 hinge = np.maximum(a - kn, 0.0)
                 names += [f"nz_vel{j}_pos", f"nz_vel{j}_neg"]
                 cols += [hinge * (w > 0), hinge * (w < 0)]
-        elif nz == "position_function":
-            # hinges in the position at its 5–95 % quantiles: with "velocity_function", a flexible
-            # function of the motion's state (session 26)
-            knots = np.quantile(q, [0.05, 0.25, 0.5, 0.75, 0.95])
-            for j, kn in enumerate(knots):
-                names.append(f"nz_pos{j}")
-                cols.append(np.maximum(q - kn, 0.0))
         elif nz == "phase_function":
             if spec.phase_hz is None:
                 raise ValueError("the phase_function nuisance needs ModelSpec.phase_hz")

@@ -1031,13 +1031,13 @@ def _ool_entry(kind: str, share: float, gain: float, z: float, shift_s: float | 
             **({"shift_s": shift_s} if shift_s is not None else {})}
 
 
-def _gain_with_nuisance(prep: Prepared, cur: ModelSpec, cand: ModelSpec, nuisance: str | tuple[str, ...], k_folds: int,
+def _gain_with_nuisance(prep: Prepared, cur: ModelSpec, cand: ModelSpec, nuisance: str, k_folds: int,
                         phase_hz: float | None = None, phase_harmonics: int = PHASE_HARMONICS) -> tuple[float, float]:
-    """:func:`cv_compare` of the current model and the candidate, both with the nuisance description(s)
+    """:func:`cv_compare` of the current model and the candidate, both with the nuisance description
     ``nuisance`` added (and ``phase_hz``, ``phase_harmonics`` set for ``"phase_function"``): (gain %, z)."""
     s0, s1 = cur.copy(), cand.copy()
     for sp in (s0, s1):
-        sp.nuisance.extend((nuisance,) if isinstance(nuisance, str) else nuisance)
+        sp.nuisance.append(nuisance)
         if phase_hz is not None:
             sp.phase_hz = phase_hz
             sp.phase_harmonics = phase_harmonics
@@ -1128,14 +1128,11 @@ def run_loop(
                 why = _beats_gear_spring(prep, cur, c, cfg, spring_cache)
             if why is None and c["kind"] == "time_periodic" and c["motion_share"] >= 0.02:
                 # the motion has a line here: must still predict with a flexible velocity function in both models
-                # ... of the velocity and of the position: on a sinusoidal motion a line at its frequency is
-                # a·velocity + b·position exactly (session 26, blind record 284)
-                g, z = _gain_with_nuisance(prep, cur.spec, c["fit"].spec, ("velocity_function", "position_function"),
-                                           cfg.k_folds)
+                g, z = _gain_with_nuisance(prep, cur.spec, c["fit"].spec, "velocity_function", cfg.k_folds)
                 if not predicts(g, z, zc):
                     why = (f"the motion has a line at this frequency ({100 * c['motion_share']:.0f} % of the velocity signal) "
-                           f"and with a flexible function of the velocity and the position in the model the line no longer "
-                           f"predicts (gain {g:.2f} %, z = {z:.1f}): a model error along the motion's state, not a disturbance")
+                           f"and with a flexible velocity function in the model the line no longer predicts (gain {g:.2f} %, "
+                           f"z = {z:.1f}): a velocity-dependent model error, not a disturbance")
             if why is None and phase_hz is not None and c["kind"] == "time_periodic":
                 # within one frequency bin (1/T, Rayleigh) of a guarded harmonic: not resolvable from it
                 f_c = c["fit"].spec.time_frequencies[c["slot"]]
