@@ -1,9 +1,11 @@
 """Session 26: compare the change's runs with main's (named sets and the bars' figures); run from the
-repository root: python data/calibration_benchmark/session26_position_friction/judge.py"""
+repository root: python data/calibration_benchmark/session26_position_friction/judge.py [PREFIX]
+(PREFIX: ``change_`` for the second change, the default, or ``delay_`` for the third)."""
 import importlib, json, re, sys
 sys.path.insert(0, ".")
 D = "data/calibration_benchmark/session26_position_friction/"
 S = "data/calibration_benchmark/session25_moving_guard/"
+PREFIX = sys.argv[1] if len(sys.argv) > 1 else "change_"
 GEN = {"blind": "plant.calibration.blind_records", "independent": "plant.calibration.bench_records"}
 
 
@@ -35,7 +37,7 @@ def figs(d, gen):
 for name, gen, mainp in [("blind_320_379", "blind", D + "main_blind_320_379.json"),
                          ("fresh_3000_3059", "independent", None), ("dev_1000_1059", "independent", None)]:
     try:
-        a = load(D + f"change_{name}.json")
+        a = load(D + f"{PREFIX}{name}.json")
     except FileNotFoundError:
         print(name, "change: not run"); continue
     print(name, "change", figs(a, gen))
