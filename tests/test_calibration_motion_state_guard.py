@@ -51,7 +51,7 @@ def test_a_position_dependent_torque_is_not_named_a_line_at_the_motions_frequenc
 
 
 def test_a_disturbance_away_from_the_motions_lines_is_still_found():
-    v, f0 = _sinusoid_motion()
+    v, _ = _sinusoid_motion()
     f_d = 1.37  # Hz, far from the motion's 0.083 Hz and its harmonics
     rec = _record(v, torque_extra=lambda t, q: 0.5 * np.sin(2 * math.pi * f_d * t))
     result = loop.run_loop(prepare(rec))
