@@ -29,6 +29,11 @@ from plant.calibration.fit import effective_n
 
 __all__ = ["velocity_profile", "position_spectrum", "time_spectrum", "reversal_profile", "find_peaks", "moving_mask", "summarize", "whiteness"]
 
+#: fewest cycles over the travel (position) or the record (time) for a periodic term to be identifiable;
+#: the spectra search from one cycle and :func:`find_peaks` drops maxima below this (session 27: a
+#: maximum at 2.12 cycles was the grid's first point and never a peak)
+MIN_CYCLES = 2.0
+
 
 def moving_mask(dq: np.ndarray, frac: float = 0.05) -> np.ndarray:
     """Samples in motion: ``|dq|`` above ``frac`` of its 95th percentile."""
@@ -127,8 +132,9 @@ def position_spectrum(q: np.ndarray, dq: np.ndarray, resid: np.ndarray, n_freq: 
     Returns
     -------
     dict
-        ``freq`` [cycles per unit position], ``share`` (0..1), ``n`` samples used, ``n_eff``, and
-        the raw ``x``, ``r`` used.
+        ``freq`` [cycles per unit position] from one cycle over the travel, ``share`` (0..1), ``n``
+        samples used, ``n_eff``, the raw ``x``, ``r`` used, and ``f_min`` (:data:`MIN_CYCLES` over
+        the travel), below which :func:`find_peaks` reports no peak.
     """
     mov = moving_mask(dq)
     x, r = q[mov], resid[mov]
@@ -144,8 +150,11 @@ def position_spectrum(q: np.ndarray, dq: np.ndarray, resid: np.ndarray, n_freq: 
     sums = np.bincount(idx, weights=rr, minlength=nb)
     vals = np.where(cnt > 0, sums / np.maximum(cnt, 1), 0.0)
     vals[cnt > 0] -= vals[cnt > 0].mean()
-    freqs, share = _grid_share(vals, int((cnt > 0).sum()), step, 2.0 / span, 0.5 / step)
-    return {"freq": freqs, "share": share, "n": int(x.size), "n_eff": effective_n(r), "x": x, "r": r}
+    # the grid starts at one cycle so that a maximum just above the rule's two cycles is a local maximum
+    # (session 27): find_peaks drops maxima below ``f_min``
+    freqs, share = _grid_share(vals, int((cnt > 0).sum()), step, 1.0 / span, 0.5 / step)
+    return {"freq": freqs, "share": share, "n": int(x.size), "n_eff": effective_n(r), "x": x, "r": r,
+            "f_min": MIN_CYCLES / span}
 
 
 def time_spectrum(t: np.ndarray, resid: np.ndarray, f_max_hz: float | None = None, n_freq: int | None = None) -> dict:
@@ -159,7 +168,9 @@ def time_spectrum(t: np.ndarray, resid: np.ndarray, f_max_hz: float | None = Non
     Returns
     -------
     dict
-        ``freq`` [Hz], ``share`` (0..1), ``n``, ``n_eff``, raw ``x`` (= t), ``r``.
+        ``freq`` [Hz] from one cycle over the record, ``share`` (0..1), ``n``, ``n_eff``, raw ``x``
+        (= t), ``r``, and ``f_min`` (:data:`MIN_CYCLES` over the record), below which
+        :func:`find_peaks` reports no peak.
     """
     dt = float(np.median(np.diff(t)))
     T = float(t[-1] - t[0])
@@ -168,8 +179,9 @@ def time_spectrum(t: np.ndarray, resid: np.ndarray, f_max_hz: float | None = Non
     rr = resid - resid.mean()
     vals[idx] = rr
     fmax = f_max_hz if f_max_hz is not None else 0.8 * 0.5 / dt
-    freqs, share = _grid_share(vals, t.size, dt, 2.0 / T, fmax)
-    return {"freq": freqs, "share": share, "n": int(t.size), "n_eff": effective_n(resid), "x": t, "r": resid}
+    freqs, share = _grid_share(vals, t.size, dt, 1.0 / T, fmax)
+    return {"freq": freqs, "share": share, "n": int(t.size), "n_eff": effective_n(resid), "x": t, "r": resid,
+            "f_min": MIN_CYCLES / T}
 
 
 def find_peaks(spec: dict, n_peaks: int = 3, min_share: float = 0.0, fap_max: float = 1.0) -> list[dict]:
@@ -180,24 +192,39 @@ def find_peaks(spec: dict, n_peaks: int = 3, min_share: float = 0.0, fap_max: fl
     list of dict
         ``{"frequency", "share", "fap"}`` sorted by share, at most ``n_peaks``; ``fap`` is the
         false-alarm probability (white noise, ``n_eff`` samples, independent frequencies ≈ span × T).
+        Only local maxima of the spectrum count, and none below ``spec["f_min"]``: a maximum just
+        above that limit is found because the spectrum's grid starts lower (session 27). A grid
+        maximum below the limit is located by the vertex of the parabola through it and its two
+        neighbours, and is reported there if that lies at or above the limit.
     """
     f, s = spec["freq"], spec["share"]
     if f.size < 3:
         return []
     idx, _ = signal.find_peaks(s)
+    f_min = spec.get("f_min", 0.0)
+    at = {int(i): float(f[i]) for i in idx}
+    for i in idx:
+        if f[i] < f_min:
+            # the grid's maximum lies below the limit; the spectrum's own maximum may not: the vertex of
+            # the parabola through the three grid points (session 27)
+            den = s[i - 1] - 2.0 * s[i] + s[i + 1]
+            vertex = f[i] + 0.5 * (f[i + 1] - f[i]) * (s[i - 1] - s[i + 1]) / den if den < 0 else f[i]
+            at[int(i)] = float(vertex)
+    idx = np.array([i for i in idx if at[int(i)] >= f_min], dtype=int)
     idx = idx[np.argsort(s[idx])[::-1]]
     n_eff = max(spec.get("n_eff", spec["n"]), 4.0)
     m_indep = max(spec["n"] / 2.0, 1.0)
     out = []
     for i in idx[: 8 * n_peaks]:
-        z = exact_share(spec["x"], spec["r"], float(f[i])) if "x" in spec else float(s[i])
+        fi = at[int(i)]
+        z = exact_share(spec["x"], spec["r"], fi) if "x" in spec else float(s[i])
         fap = min(1.0, m_indep * (1.0 - z) ** ((n_eff - 3.0) / 2.0)) if z < 1 else 0.0
         if z < min_share or fap > fap_max:
             continue
         # avoid near-duplicates (within 2 % of a stronger peak)
-        if any(abs(f[i] - p["frequency"]) < 0.02 * p["frequency"] for p in out):
+        if any(abs(fi - p["frequency"]) < 0.02 * p["frequency"] for p in out):
             continue
-        out.append({"frequency": float(f[i]), "share": z, "fap": fap})
+        out.append({"frequency": fi, "share": z, "fap": fap})
     out.sort(key=lambda p: -p["share"])
     return out[:n_peaks]
 
