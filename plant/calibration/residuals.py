@@ -30,8 +30,8 @@ from plant.calibration.fit import effective_n
 __all__ = ["velocity_profile", "position_spectrum", "time_spectrum", "reversal_profile", "find_peaks", "moving_mask", "summarize", "whiteness"]
 
 #: fewest cycles over the travel (position) or the record (time) for a periodic term to be identifiable;
-#: the spectra search from one cycle and :func:`find_peaks` drops maxima below this (session 27: a
-#: maximum at 2.12 cycles was the grid's first point and never a peak)
+#: the position spectrum searches from one cycle and :func:`find_peaks` drops maxima below this
+#: (session 27: a maximum at 2.12 cycles was the grid's first point and never a peak)
 MIN_CYCLES = 2.0
 
 
@@ -168,9 +168,10 @@ def time_spectrum(t: np.ndarray, resid: np.ndarray, f_max_hz: float | None = Non
     Returns
     -------
     dict
-        ``freq`` [Hz] from one cycle over the record, ``share`` (0..1), ``n``, ``n_eff``, raw ``x``
-        (= t), ``r``, and ``f_min`` (:data:`MIN_CYCLES` over the record), below which
-        :func:`find_peaks` reports no peak.
+        ``freq`` [Hz] from :data:`MIN_CYCLES` over the record, ``share`` (0..1), ``n``, ``n_eff``,
+        raw ``x`` (= t), ``r``. Unlike the position spectrum the grid does not start lower: a line of
+        about two cycles over a record with few reversals is a slow function of the position too,
+        and took the place of a load-dependent friction on blind record 55 (session 27).
     """
     dt = float(np.median(np.diff(t)))
     T = float(t[-1] - t[0])
@@ -179,9 +180,8 @@ def time_spectrum(t: np.ndarray, resid: np.ndarray, f_max_hz: float | None = Non
     rr = resid - resid.mean()
     vals[idx] = rr
     fmax = f_max_hz if f_max_hz is not None else 0.8 * 0.5 / dt
-    freqs, share = _grid_share(vals, t.size, dt, 1.0 / T, fmax)
-    return {"freq": freqs, "share": share, "n": int(t.size), "n_eff": effective_n(resid), "x": t, "r": resid,
-            "f_min": MIN_CYCLES / T}
+    freqs, share = _grid_share(vals, t.size, dt, MIN_CYCLES / T, fmax)
+    return {"freq": freqs, "share": share, "n": int(t.size), "n_eff": effective_n(resid), "x": t, "r": resid}
 
 
 def find_peaks(spec: dict, n_peaks: int = 3, min_share: float = 0.0, fap_max: float = 1.0) -> list[dict]:
