@@ -686,7 +686,7 @@ def _b_position_periodic(ctx: _Ctx) -> list[dict[str, Any]]:
     for pk in res.find_peaks(ps, n_peaks=ctx.cfg.n_peaks):
         period = 1.0 / pk["frequency"]
         cycles = ctx.span / period
-        if cycles < 2.0:  # fewer than 2 cycles over the travel: not identifiable as periodic
+        if cycles < res.MIN_CYCLES:  # fewer than 2 cycles over the travel: not identifiable as periodic
             continue
         if not ctx.linear and abs(period - 2 * math.pi) < 0.05 * 2 * math.pi:
             continue  # that is gravity_imbalance
@@ -721,7 +721,7 @@ def _b_time_periodic(ctx: _Ctx) -> list[dict[str, Any]]:
     T = float(ctx.prep.t_dec[-1] - ctx.prep.t_dec[0])
     for pk in res.find_peaks(ts, n_peaks=ctx.cfg.n_peaks):
         f0 = pk["frequency"]
-        if f0 * T < 2:
+        if f0 * T < res.MIN_CYCLES:
             continue
         if any(abs(f0 - f) < 0.02 * f for f in spec.time_frequencies):
             continue
