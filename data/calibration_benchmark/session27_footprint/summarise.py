@@ -8,11 +8,19 @@ from collections import defaultdict
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-RUNS = [HERE.parent / "session26_position_friction" / "head_blind_0_59.json",
-        HERE.parent / "session26_position_friction" / "head_blind_100_159.json",
-        HERE.parent / "session25_sweep_guard" / "main_blind_200_259.json",
-        HERE.parent / "session25_moving_guard" / "main_blind_260_319.json",
-        HERE.parent / "session26_position_friction" / "main_blind_320_379.json"]
+#: HEAD's named sets before session 27's change (corrected after the first summary: the committed
+#: session-25 runs of 200-259 and 260-319 predate that session's second change; 200-259 was re-run in
+#: session 27, 260-319 was re-run by session 25 itself in its change_/rerun_ files)
+B = HERE.parent
+RUNS = "+".join(str(p) for p in [
+    B / "session26_position_friction" / "head_blind_0_59.json",
+    B / "session26_position_friction" / "head_blind_100_159.json",
+    B / "session27_edge_peak" / "main_blind_200_259_rerun.json",
+    B / "session25_moving_guard" / "main_blind_260_319.json",
+    B / "session25_moving_guard" / "change_blind_260_319.txt",
+    B / "session25_moving_guard" / "rerun_blind_260_319.txt",
+    B / "session25_moving_guard" / "rerun2_blind_260_319.txt",
+    B / "session26_position_friction" / "main_blind_320_379.json"])
 BINS = [(-1e9, 1.0, "< 1 %"), (1.0, 3.0, "1–3 %"), (3.0, 10.0, "3–10 %"), (10.0, 30.0, "10–30 %"),
         (30.0, 1e9, "≥ 30 %")]
 KINDS = ["asymmetric_friction", "position_periodic", "gravity_imbalance", "time_periodic", "presliding", "backlash"]
@@ -25,7 +33,13 @@ def bin_of(x):
 
 def main(path):
     fp = json.load(open(path))
-    runs = {r["seed"]: r for f in RUNS for r in json.load(open(f))}
+    sys.path.insert(0, str(B / "tools"))
+    from compare import load
+    runs = {seed: {"hidden": h, "named": n, "exact": e, "undecided": []} for seed, (h, n, e) in load(RUNS).items()}
+    for f in RUNS.split("+"):   # the printed lines carry no undecided kinds; the json files do
+        if f.endswith(".json"):
+            for o in json.load(open(f)):
+                runs[o["seed"]]["undecided"] = o["undecided"]
     rows = []
     for f in fp:
         run = runs[f["seed"]]
