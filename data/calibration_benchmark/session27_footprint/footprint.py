@@ -85,8 +85,7 @@ def one(seed):
     p = br._draw(seed, hidden)
     t, tq, pos = _logged(p)
     d = Path(tempfile.mkdtemp(prefix=f"s27_fp_{seed}_"))
-    np.savetxt(d / "rec.csv", np.column_stack([t, tq, pos]), fmt="%.12g", delimiter=",",
-               header="time_s,torque_nm,position_rad", comments="")
+    br.BlindRecord(seed, hidden, {}, t, tq, pos).write_csv(d / "rec.csv")
     rec = load_record(str(d / "rec.csv"))
     prep = prepare(rec)
     K = p.get("two_mass", {}).get("stiffness_nm_rad")
@@ -97,8 +96,7 @@ def one(seed):
     for kind in lib:
         t2, tq2, pos2 = _logged(without(p, kind))
         dtau = tq - tq2
-        np.savetxt(d / "cf.csv", np.column_stack([t2, tq2, pos2]), fmt="%.12g", delimiter=",",
-                   header="time_s,torque_nm,position_rad", comments="")
+        br.BlindRecord(seed, hidden, {}, t2, tq2, pos2).write_csv(d / "cf.csv")
         prep2 = prepare(load_record(str(d / "cf.csv")))
         base2, _ = fit_baseline(prep2, LoopConfig(gear_stiffness=K))
         r2 = base2.residual
