@@ -102,10 +102,13 @@ class Prepared:
     n_standstill: int = 0
     position_resolution: float = 0.0
     coulomb: np.ndarray | None = None
+    rest_mask: np.ndarray | None = None
 
     def dec(self, x: np.ndarray) -> np.ndarray:
         """Decimate full-rate column(s) (axis 0) like Matlab ``decimate`` (IIR, zero phase) and keep
         the rows used by the fit (standstill rows dropped, see :func:`prepare`)."""
+        if self.rest_mask is not None:
+            x = x * (self.rest_mask if x.ndim == 1 else self.rest_mask[:, None])
         out = _decimate(x, self.decim)
         return out if self.keep is None else out[self.keep]
 
@@ -223,10 +226,21 @@ def prepare(
     keep = None
     n_still = 0
     coulomb = None
+    rest_mask = None
     if exclude_standstill:
         v_still = standstill_frac * float(np.percentile(np.abs(dq_dec), 95))
         coulomb = stick_ramp(np.sign(dq), np.abs(dq) < v_still)
         mask = np.abs(dq_dec) >= v_still
+        # Torque and columns masked alike at rest (session 28): there the model is wrong by up to
+        # ±Fs, and the decimation filter would spread that error over its reach (≈ 4.5·decimate
+        # samples) into the moving samples the fit keeps. The rest is grown by the position
+        # filter's reach, over which the velocity and acceleration columns still see the stop.
+        rest = np.abs(dq) < v_still
+        reach = filter_reach(b, a)
+        moving = np.convolve(rest.astype(float), np.ones(2 * reach + 1), mode="same") < 0.5
+        rest_mask = moving.astype(float)
+        y_dec = _decimate(y * rest_mask, decimate)
+        mask &= moving[_decimation_start(moving.size, decimate)::decimate]
         n_still = int((~mask).sum())
         if n_still:
             keep = np.flatnonzero(mask)
@@ -234,8 +248,36 @@ def prepare(
     return Prepared(
         record=record, t=t, q=q, dq=dq, ddq=ddq, y=y, dt_s=dt, decim=decimate, cutoff_hz=cutoff_hz,
         t_dec=t_dec, q_dec=q_dec, dq_dec=dq_dec, y_dec=y_dec, keep=keep, n_standstill=n_still,
-        position_resolution=resolution, coulomb=coulomb,
+        position_resolution=resolution, coulomb=coulomb, rest_mask=rest_mask,
     )
+
+
+def filter_reach(b: np.ndarray, a: np.ndarray, energy: float = 0.999) -> int:
+    """Half-width of a zero-phase (``filtfilt``) filter's impulse response.
+
+    Parameters
+    ----------
+    b, a : ndarray
+        The filter's coefficients (one pass).
+    energy : float
+        Share of the impulse response's energy the half-width must hold (default 99.9 %, session 6's
+        definition: 13 samples for the order-4 Butterworth at ``fs/10``).
+
+    Returns
+    -------
+    int
+        Half-width [samples]: the samples ``c−k … c+k`` around the impulse hold ``energy`` of it.
+    """
+    n = 2001
+    x = np.zeros(n)
+    x[n // 2] = 1.0
+    h = signal.filtfilt(b, a, x) ** 2
+    c = n // 2
+    tot = h.sum()
+    for k in range(c):
+        if h[c - k:c + k + 1].sum() >= energy * tot:
+            return k
+    return c
 
 
 @dataclasses.dataclass
