@@ -64,10 +64,10 @@ def _baseline(rec: Record, decimate: int) -> tuple[dict[str, float], float]:
 
 
 @pytest.mark.parametrize("seed", [1, 2])
-def test_baseline_does_not_depend_on_the_fit_band(seed: int) -> None:
+def test_baseline_does_not_depend_on_a_coarse_fit_band(seed: int) -> None:
     rec = _record(seed)
-    fine, rms_fine = _baseline(rec, 4)     # 50 Hz fit (a short record at 200 Hz gets 2: 100 Hz)
-    coarse, rms_coarse = _baseline(rec, 20)  # 10 Hz fit (what a 10⁶-sample record gets)
+    fine, rms_fine = _baseline(rec, 8)       # 25 Hz fit
+    coarse, rms_coarse = _baseline(rec, 20)  # 10 Hz fit (what a 10⁶-sample record at 200 Hz gets)
     for name, truth in (("inertia", J), ("viscous", FV), ("coulomb", FC)):
         for c in (fine, coarse):
             assert c[name] == pytest.approx(truth, rel=0.02), (name, fine[name], coarse[name])
@@ -76,6 +76,16 @@ def test_baseline_does_not_depend_on_the_fit_band(seed: int) -> None:
         assert c["offset"] == pytest.approx(OFFSET, abs=0.05)
     # a narrower low-pass applied alike to torque and columns cannot raise the residual
     assert rms_coarse <= rms_fine * 1.05, (rms_fine, rms_coarse)
+
+
+def test_standard_band_is_not_masked() -> None:
+    """At the standard ≈ 100 Hz fit (decimation round(fs/100)) nothing is masked: there the loop's
+    rules were built with the leakage present, and the mask lost as many records as it gained."""
+    rec = _record(3, duration_s=60.0)
+    assert prepare(rec).rest_mask is None
+    assert prepare(rec).decim == 2
+    coarse = prepare(rec, decimate=10)
+    assert coarse.rest_mask is not None and 0.0 < coarse.rest_mask.mean() < 1.0
 
 
 def test_filter_reach_of_the_position_filter() -> None:

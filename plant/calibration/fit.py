@@ -79,6 +79,9 @@ class Prepared:
     t_dec, q_dec, dq_dec, y_dec : ndarray, shape (M,)
         The decimated versions.
     record : Record
+    rest_mask : ndarray, shape (N,), or None
+        1 where the full-rate samples enter the decimation, 0 at rest (grown by the position
+        filter's reach); set only at a band coarser than the standard one (:func:`prepare`).
     coulomb : ndarray, shape (N,), or None
         The baseline's Coulomb column: ``sign(dq)``, ramped across the full-rate samples at rest by
         the standstill rule of :func:`prepare` (:func:`stick_ramp`); None when standstill samples
@@ -179,7 +182,12 @@ def prepare(
         Drop decimated samples at rest (``|dq| < standstill_frac × 95th-percentile speed``): at
         rest the friction can be anything between the static limits, so ``sign(dq)`` of a
         noise-level velocity is meaningless there. Default: True, except for EMPS records, where
-        the benchmark procedure (all samples) is reproduced.
+        the benchmark procedure (all samples) is reproduced. When the decimation is coarser than
+        the standard ``round(fs/100 Hz)`` (the sample cap of a long record), the torque and every
+        column are also set to 0 at rest, grown by the position filter's reach
+        (:func:`filter_reach`), before the decimation filter (``Prepared.rest_mask``), and the
+        decimated samples there are dropped: the error at rest would otherwise spread over the
+        coarse filter's reach into the moving samples (docs/calibration.md, "Session 28").
 
     Raises
     ------
@@ -205,8 +213,9 @@ def prepare(
         # the emulator's 100 Hz sensor log: torque from currents across compliant, backlashed gear
         # trains; fit band 4 Hz as before (tests/test_calibration_closed_loop.py)
         decimate = 10
+    standard_decimate = max(1, int(round(fs / 100.0)))
     if decimate is None:
-        decimate = max(1, int(round(fs / 100.0)), math.ceil((len(record) - n_border) / MAX_FIT_SAMPLES))
+        decimate = max(standard_decimate, math.ceil((len(record) - n_border) / MAX_FIT_SAMPLES))
     if cutoff_hz is None:
         cutoff_hz = fs / 10.0
     if not 0 < cutoff_hz < fs / 2:
@@ -231,16 +240,21 @@ def prepare(
         v_still = standstill_frac * float(np.percentile(np.abs(dq_dec), 95))
         coulomb = stick_ramp(np.sign(dq), np.abs(dq) < v_still)
         mask = np.abs(dq_dec) >= v_still
-        # Torque and columns masked alike at rest (session 28): there the model is wrong by up to
-        # ±Fs, and the decimation filter would spread that error over its reach (≈ 4.5·decimate
-        # samples) into the moving samples the fit keeps. The rest is grown by the position
-        # filter's reach, over which the velocity and acceleration columns still see the stop.
-        rest = np.abs(dq) < v_still
-        reach = filter_reach(b, a)
-        moving = np.convolve(rest.astype(float), np.ones(2 * reach + 1), mode="same") < 0.5
-        rest_mask = moving.astype(float)
-        y_dec = _decimate(y * rest_mask, decimate)
-        mask &= moving[_decimation_start(moving.size, decimate)::decimate]
+        if decimate > standard_decimate:
+            # A band coarser than the standard ≈ 100 Hz fit (the sample cap of a long record):
+            # torque and columns are masked alike at rest (docs/calibration.md, "Session 28").
+            # There the model is wrong by up to ±Fs, and the decimation filter spreads that error
+            # over its reach (≈ 4.5·decimate samples) into the moving samples the fit keeps; at
+            # a 10 Hz fit that is 0.45 s after every stop. The rest is grown by the position
+            # filter's reach, over which the velocity and acceleration columns still see the stop.
+            # At the standard band the loop's rules were built with the leakage present, and the
+            # mask there lost as many records as it gained (session 28, bar 1): not applied.
+            rest = np.abs(dq) < v_still
+            reach = filter_reach(b, a)
+            moving = np.convolve(rest.astype(float), np.ones(2 * reach + 1), mode="same") < 0.5
+            rest_mask = moving.astype(float)
+            y_dec = _decimate(y * rest_mask, decimate)
+            mask &= moving[_decimation_start(moving.size, decimate)::decimate]
         n_still = int((~mask).sum())
         if n_still:
             keep = np.flatnonzero(mask)
