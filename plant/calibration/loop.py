@@ -1185,7 +1185,12 @@ def run_loop(
         comps = [{"kind": c["kind"], "cv_gain_pct": c["cv_gain_pct"], "cv_z": c["cv_z"],
                   "passed": any(c is p for p in passing)} for c in cands if c is not chosen][:4]
         f = chosen["fit"]
-        won = "; ".join(f"{x['kind']} {x['cv_gain_pct']:.1f} % (z = {x['cv_z']:.1f})" for x in comps if x["cv_gain_pct"] > 0)
+        won = "; ".join(f"{x['kind']} {x['cv_gain_pct']:.1f} % (z = {x['cv_z']:.1f})" for x in comps
+                        if x["cv_gain_pct"] > 0 and x["passed"])
+        # candidates with a larger or positive gain that a rule refused did not compete: say so
+        # instead of listing them as beaten (session 28: blind-reading seed 42's report)
+        out_of_play = "; ".join(f"{x['kind']} {x['cv_gain_pct']:.1f} % (z = {x['cv_z']:.1f})" for x in comps
+                                if x["cv_gain_pct"] > 0 and not x["passed"])
         if chosen["kind"] in OUT_OF_LIBRARY:
             ool.append(_ool_entry(chosen["kind"], chosen["explained_pct"], chosen["cv_gain_pct"], chosen["cv_z"],
                                   _delay_s(f) if chosen["kind"] == "delay" else None,
@@ -1202,6 +1207,8 @@ def run_loop(
               f"cross-validated mean squared error falls by {chosen['cv_gain_pct']:.1f} % (z = {chosen['cv_z']:.1f}); it explains "
               f"{chosen['explained_pct']:.1f} % of the residual variance."
               + (f" Won against: {won}." if won else "")
+              + (f" Not in the competition (refused by a rule or not significant; see the rejected candidates): "
+                 f"{out_of_play}." if out_of_play else "")
               + (f" It also predicts better than the declared gear spring alone (gain {chosen['gain_over_spring_pct']:.1f} %, z = {chosen['z_over_spring']:.1f}; a point estimate is the test here)."
                  if "gain_over_spring_pct" in chosen else "")
               + (f" Its direction-dependent viscous friction predicts better than a symmetric one with the Coulomb level "
