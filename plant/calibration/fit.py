@@ -47,7 +47,7 @@ from scipy import optimize, signal
 
 from plant.calibration.io import Record
 
-__all__ = ["Prepared", "ModelSpec", "FitResult", "prepare", "fit_model", "predict", "effective_n"]
+__all__ = ["Prepared", "ModelSpec", "FitResult", "prepare", "filter_reach", "fit_model", "predict", "effective_n"]
 
 N_BORDER = 49
 #: Records longer than this are reduced before the fit (see :func:`prepare`).
