@@ -238,7 +238,8 @@ def prepare(
     rest_mask = None
     if exclude_standstill:
         v_still = standstill_frac * float(np.percentile(np.abs(dq_dec), 95))
-        coulomb = stick_ramp(np.sign(dq), np.abs(dq) < v_still)
+        rest = np.abs(dq) < v_still
+        coulomb = stick_ramp(np.sign(dq), rest)
         mask = np.abs(dq_dec) >= v_still
         if decimate > standard_decimate:
             # A band coarser than the standard ≈ 100 Hz fit (the sample cap of a long record):
@@ -249,7 +250,6 @@ def prepare(
             # filter's reach, over which the velocity and acceleration columns still see the stop.
             # At the standard band the loop's rules were built with the leakage present, and the
             # mask there lost as many records as it gained (session 28, bar 1): not applied.
-            rest = np.abs(dq) < v_still
             reach = filter_reach(b, a)
             moving = np.convolve(rest.astype(float), np.ones(2 * reach + 1), mode="same") < 0.5
             rest_mask = moving.astype(float)
