@@ -688,7 +688,7 @@ def _b_position_periodic(ctx: _Ctx) -> list[dict[str, Any]]:
         cycles = ctx.span / period
         if cycles < res.MIN_CYCLES:  # fewer than 2 cycles over the travel: not identifiable as periodic
             continue
-        if not ctx.linear and abs(period - 2 * math.pi) < 0.05 * 2 * math.pi:
+        if not ctx.linear and _is_gravity_period(period):
             continue  # that is gravity_imbalance
         if any(abs(period - p) < 0.02 * p for p in spec.position_periods):
             continue
@@ -698,11 +698,28 @@ def _b_position_periodic(ctx: _Ctx) -> list[dict[str, Any]]:
         i = _hyper_index(new, "position_periods", slot)
         # refine within two spectral bins of the peak (one bin = one cycle over the travel)
         f = fit_model(ctx.prep, new, free=[i], rel_bounds={i: min(0.25, 2.0 / cycles)})
+        if not ctx.linear and _is_gravity_period(f.spec.position_periods[slot]):
+            # refined onto one cycle per revolution: the columns are gravity_imbalance's, which is
+            # tried on its own (session 29: a 10⁶-sample record over 17 turns named its gravity a
+            # "position_periodic" of period 6.28320 rad, the tie broken by the candidates' order)
+            continue
         out.append({"kind": "position_periodic", "slot": slot, "fit": f, "group": "line",
                     "evidence": f"the residual's position spectrum peaks at {pk['frequency']:.4g} cycles/{ctx.unit_pos} (period "
                                 f"{period:.4g} {ctx.unit_pos}, {cycles:.1f} cycles over the travel), one sinusoid explaining "
                                 f"{100 * pk['share']:.1f} % of the moving-sample residual variance"})
     return out
+
+
+GRAVITY_PERIOD_BAND = 0.05
+
+
+def _is_gravity_period(period: float) -> bool:
+    """True if a rotary axis's position line of ``period`` [rad] is one cycle per revolution
+    (within ``GRAVITY_PERIOD_BAND`` = 5 % of 2π): its columns ``sin, cos(2π·θ/period)`` are then
+    gravity_imbalance's ``sin θ, cos θ`` to within the record's resolution of the period, and the
+    kind is gravity_imbalance, never position_periodic (the band of the candidate filter that was
+    already there; a line needs ≥ 2 cycles over the travel, so this arises only over ≥ 2 turns)."""
+    return abs(period - 2 * math.pi) < GRAVITY_PERIOD_BAND * 2 * math.pi
 
 
 def _b_gravity(ctx: _Ctx) -> list[dict[str, Any]]:
@@ -1180,7 +1197,8 @@ def run_loop(
             rel = {i: (0.02 if n in ("position_periods", "time_frequencies") else 0.2) for i, (n, _, _) in enumerate(spec.hyper())}
             joint = fit_model(prep, spec, rel_bounds=rel) if rel else chosen["fit"]
             if (joint.rss < chosen["fit"].rss and _resolved(joint, prep.position_resolution) is None
-                    and _replaces_inertia(cur, joint) is None):
+                    and _replaces_inertia(cur, joint) is None
+                    and (linear or not any(map(_is_gravity_period, joint.spec.position_periods)))):
                 chosen["fit"] = joint
         comps = [{"kind": c["kind"], "cv_gain_pct": c["cv_gain_pct"], "cv_z": c["cv_z"],
                   "passed": any(c is p for p in passing)} for c in cands if c is not chosen][:4]
