@@ -40,6 +40,7 @@ projection).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import numpy as np
@@ -128,10 +129,20 @@ def _decimate(x: np.ndarray, r: int) -> np.ndarray:
     """
     if r <= 1:
         return np.asarray(x, float)
-    b, a = signal.cheby1(8, 0.05, 0.8 / r)
-    b = b * (a.sum() / b.sum())  # unit DC gain
-    xf = signal.filtfilt(b, a, x, axis=0, padtype="odd", padlen=3 * (max(len(a), len(b)) - 1))
+    b, a = _decimation_filter(r)
+    x = np.asarray(x, float)
+    # filtered along contiguous rows (each column of a 2-D x as one row of its transpose): the
+    # same arithmetic per sample as along axis 0, bit for bit, and twice as fast (session 30)
+    xf = signal.filtfilt(b, a, np.ascontiguousarray(x.T), axis=-1, padtype="odd",
+                         padlen=3 * (max(len(a), len(b)) - 1)).T
     return xf[_decimation_start(xf.shape[0], r) :: r]
+
+
+@functools.lru_cache(maxsize=8)
+def _decimation_filter(r: int) -> tuple[np.ndarray, np.ndarray]:
+    """The order-8 Chebyshev I of :func:`_decimate` for factor ``r`` (b, a), unit DC gain."""
+    b, a = signal.cheby1(8, 0.05, 0.8 / r)
+    return b * (a.sum() / b.sum()), a
 
 
 def _decimation_start(nd: int, r: int) -> int:
@@ -502,6 +513,18 @@ def stick_ramp(c: np.ndarray, rest: np.ndarray) -> np.ndarray:
 
 def design_full(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None, t=None) -> tuple[list[str], np.ndarray]:
     """Full-rate regressor columns for ``spec`` (names, array of shape (N, p))."""
+    names, cols = design_columns(prep, spec, q, dq, ddq, t)
+    return names, np.column_stack(cols)
+
+
+def design_columns(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None,
+                   t=None) -> tuple[list[str], list[np.ndarray]]:
+    """Full-rate regressor columns for ``spec``: names and a list of p arrays of shape (N,), float64.
+
+    The columns of :func:`design_full` before they are stacked: :func:`design` hashes and decimates
+    them one by one, and a stacked (N, p) copy of a long record's columns cost more than the fit
+    (session 30, docs/calibration.md "Hour-long logs").
+    """
     q = prep.q if q is None else q
     dq = prep.dq if dq is None else dq
     ddq = prep.ddq if ddq is None else ddq
@@ -580,7 +603,7 @@ def design_full(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None, t=No
                 x = 2 * np.pi * k * spec.phase_hz * t
                 names += [f"nz_phase{k}_sin", f"nz_phase{k}_cos"]
                 cols += [np.sin(x), np.cos(x)]
-    return names, np.column_stack(cols)
+    return names, [np.ascontiguousarray(c, dtype=np.float64) for c in cols]
 
 
 def design(prep: Prepared, spec: ModelSpec) -> tuple[list[str], np.ndarray]:
@@ -590,25 +613,15 @@ def design(prep: Prepared, spec: ModelSpec) -> tuple[list[str], np.ndarray]:
     evaluates hundreds of specs that differ in one column, and the zero-phase decimation filter is
     the costly part.
     """
-    names, X = design_full(prep, spec)
+    names, cols = design_columns(prep, spec)
     cache = prep.__dict__.setdefault("_dec_cache", {})
     if len(cache) * prep.y_dec.size * 8 > 64 * 2**20:  # at most ≈ 64 MB of cached columns
         cache.clear()
-    out = []
-    todo = []
-    keys = []
-    for j in range(X.shape[1]):
-        col = np.ascontiguousarray(X[:, j])
-        key = (names[j], hash(col.tobytes()))
-        keys.append(key)
+    keys = [(name, hash(col.tobytes())) for name, col in zip(names, cols)]
+    for key, col in zip(keys, cols):
         if key not in cache:
-            todo.append(j)
-    if todo:
-        D = prep.dec(X[:, todo])
-        for k, j in enumerate(todo):
-            cache[keys[j]] = D[:, k].copy()
-    out = np.column_stack([cache[k] for k in keys])
-    return names, out
+            cache[key] = prep.dec(col)
+    return names, np.column_stack([cache[k] for k in keys])
 
 
 def effective_n(resid: np.ndarray) -> float:
