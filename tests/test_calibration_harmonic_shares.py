@@ -67,3 +67,15 @@ def test_a_pure_harmonic_is_explained_at_its_own_number_and_not_before():
     first = a1**2 / (a1**2 + a4**2)
     np.testing.assert_allclose(s[:3], first, atol=1e-9)
     np.testing.assert_allclose(s[3:], 1.0, atol=1e-9)
+
+
+def test_coinciding_columns_give_the_definition_not_an_error():
+    """At f = 0 every sine is 0 and every cosine is the constant (a singular Gram matrix): the
+    shares are still the least-squares ones, 0 for every K, and nothing is raised."""
+    rng = np.random.default_rng(7)
+    t = np.arange(3000) * 0.01
+    v = rng.standard_normal(t.size)
+    v0 = v - v.mean()
+    s = loop._harmonic_shares(t, v, float(v0 @ v0), 0.0, 5)
+    np.testing.assert_allclose(s, _shares_by_definition(t, v, 0.0, 5), atol=1e-10)
+    np.testing.assert_allclose(s, 0.0, atol=1e-10)

@@ -842,7 +842,17 @@ def _harmonic_shares(t: np.ndarray, v: np.ndarray, var: float, f: float, k_max: 
     for k in range(1, k_max + 1):
         X[:, 2 * k - 1] = np.sin(2 * np.pi * k * f * t)
         X[:, 2 * k] = np.cos(2 * np.pi * k * f * t)
-    c2 = linalg.solve_triangular(np.linalg.cholesky(X.T @ X), X.T @ v, lower=True) ** 2
+    try:
+        c2 = linalg.solve_triangular(np.linalg.cholesky(X.T @ X), X.T @ v, lower=True) ** 2
+    except np.linalg.LinAlgError:
+        # a singular Gram matrix (columns that coincide: never for ≥ 3 cycles below a quarter of the
+        # sampling rate, as periodic_motion asks): one least-squares fit per K, the definition
+        out = []
+        for k in range(1, k_max + 1):
+            coef, *_ = np.linalg.lstsq(X[:, : 2 * k + 1], v, rcond=None)
+            r = v - X[:, : 2 * k + 1] @ coef
+            out.append(1.0 - float(r @ r) / var)
+        return np.array(out)
     vv = float(v @ v)
     return np.array([1.0 - (vv - float(c2[: 2 * k + 1].sum())) / var for k in range(1, k_max + 1)])
 
