@@ -565,10 +565,30 @@ def backlash_gap(width: float, coulomb: float, static: float, stiffness: float) 
     return max(width - 0.5 * (max(coulomb, 0.0) + max(static, 0.0)) / stiffness, 0.0)
 
 
+#: Means of the friction drift's time columns over a uniformly sampled record (τ from 0 to 1):
+#: ``mean(τ) = 1/2``, ``mean(τ²) = 1/3`` (:func:`_coulomb`).
+_DRIFT_COULOMB_MEANS = (("nz_drift_c1", 1.0 / 2.0), ("nz_drift_c2", 1.0 / 3.0))
+
+
 def _coulomb(fit: FitResult) -> float:
+    """The fit's Coulomb level [N·m or N] averaged over the record's time.
+
+    With the out-of-library ``friction_drift`` description in the model the Coulomb torque is
+    ``(Fc + c₁τ + c₂τ²)·sign``: the level is carried by all three coefficients, and the fit may put
+    ``Fc`` (the level at τ = 0) at its bound 0 while the drift columns carry the whole level. Its
+    mean over the record, ``Fc + c₁/2 + c₂/3``, is what the rules that need a Coulomb level (the
+    declared gear spring's swing ``2Fc/K``, the bristle behind it, σ0 = ``k·Fc``, the backlash gap)
+    must see — before session 31 they read ``Fc`` alone, 0 on independent seed 55, and skipped the
+    gear-spring check there (docs/calibration.md, "Session 31").
+    """
     if "coulomb" in fit.names:
-        return fit.param("coulomb")
-    return 0.5 * (fit.param("coulomb_pos") + fit.param("coulomb_neg"))
+        level = fit.param("coulomb")
+    else:
+        level = 0.5 * (fit.param("coulomb_pos") + fit.param("coulomb_neg"))
+    for name, mean in _DRIFT_COULOMB_MEANS:
+        if name in fit.names:
+            level += mean * fit.param(name)
+    return level
 
 
 def effect_from_fit(fit: FitResult, kind: str, slot: int | None) -> Effect:
