@@ -507,7 +507,8 @@ def _replaces_inertia(cur: FitResult, new: FitResult) -> str | None:
 
 def friction_levels(fit: FitResult) -> tuple[float, float]:
     """Coulomb level ``Fc`` and static level ``Ts`` of a fit (the mean of the two directions when
-    friction is asymmetric; ``Ts = Fc`` when no Stribeck term was fitted), both ≥ 0 [N·m or N]."""
+    friction is asymmetric; the mean over the record's time when a friction drift is in the model,
+    :func:`_coulomb`; ``Ts = Fc`` when no Stribeck term was fitted), both ≥ 0 [N·m or N]."""
     fc = max(_coulomb(fit), 0.0)
     return fc, (fc + max(fit.param("stribeck"), 0.0)) if "stribeck" in fit.names else fc
 
