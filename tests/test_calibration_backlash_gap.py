@@ -75,3 +75,60 @@ def test_cli_refuses_a_bad_stiffness(backlash_record, tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert rc != 0 and len(err) == 1 and "--gear-stiffness" in err[0] and "positive" in err[0]
     assert not (tmp_path / "o" / "report.json").exists()
+
+
+def test_gap_refitted_inside_the_declared_spring_where_the_wind_up_dwarfs_it(tmp_path):
+    """Session 32 (docs/calibration.md): with the stiffness declared the gap is refitted after the
+    loop with friction acting through the spring and the gap inside it (``loop.geared_gap``). On
+    independent record 4636 (a tracking run whose spring swing 2Fc/K is four times the gap; from the
+    set 4600–4659 that decided the change) the formula ``backlash_gap`` is more than 100 % off and
+    the refit within 30 %; the report says which method gave the gap."""
+    import dataclasses
+
+    from plant.calibration.bench_records import make_record
+    from plant.calibration.fit import prepare
+    from plant.calibration.io import load_record
+    from plant.calibration.loop import GAP_REFITTED, LoopConfig, friction_levels, geared_gap, run_loop
+    from plant.calibration.report import calibrate
+
+    rec = make_record(4636, ("backlash",))
+    path = tmp_path / "rec_4636.csv"
+    rec.write_csv(path)
+    gap_true = rec.truth["backlash"]["width_rad"]
+    k = rec.meta["two_mass"]["stiffness_nm_rad"]
+    prep = prepare(load_record(path))
+    res = run_loop(prep, cfg=dataclasses.replace(LoopConfig(), gear_stiffness=k))
+    assert [a.kind for a in res.accepted] == ["backlash"]
+    fc, ts = friction_levels(res.final)
+    formula = backlash_gap(res.final.spec.backlash_width, fc, ts, k)
+    assert abs(formula / gap_true - 1) > 1.0, (formula, gap_true)   # what the change repairs
+    gap, how = geared_gap(prep, res.final, k)
+    assert how["method"] == GAP_REFITTED and how["swing"] > 2 * gap_true
+    assert abs(gap / gap_true - 1) < 0.30, (gap, gap_true)
+
+    rep = calibrate(path, tmp_path / "out", plots=False, gear_stiffness=k)
+    (bl,) = [e for e in rep["effects"] if e["kind"] == "backlash"]
+    assert bl["gap_rad"] == pytest.approx(gap, rel=1e-6) and bl["gap_method"] == GAP_REFITTED
+    assert "geared_gap" in (tmp_path / "out" / "report.md").read_text()
+
+
+def test_geared_gap_refuses_what_it_cannot_refit(tmp_path):
+    """No backlash in the fit, or a stiffness that is not positive and finite: ValueError naming it;
+    a spring so stiff that its swing is under 10 position quanta: None, and the formula is used."""
+    from plant.calibration.bench_records import make_record
+    from plant.calibration.fit import ModelSpec, fit_model, prepare
+    from plant.calibration.io import load_record
+    from plant.calibration.loop import GAP_FORMULA, geared_gap
+
+    rec = make_record(3306, ("backlash",))
+    path = tmp_path / "rec.csv"
+    rec.write_csv(path)
+    prep = prepare(load_record(path))
+    plain = fit_model(prep, ModelSpec())
+    with pytest.raises(ValueError, match="no backlash"):
+        geared_gap(prep, plain, 1e5)
+    with_play = fit_model(prep, ModelSpec(backlash_width=rec.truth["backlash"]["width_rad"]), refine=False)
+    with pytest.raises(ValueError, match="gear stiffness"):
+        geared_gap(prep, with_play, 0.0)
+    gap, how = geared_gap(prep, with_play, 1e12)
+    assert gap is None and how["method"] == GAP_FORMULA

@@ -98,7 +98,8 @@ def test_benchmark_no_invention_on_ci_subset(ci_benchmark):
 @pytest.mark.xfail(strict=True, reason=(
     "issue 7 targets not reached (measured, docs/calibration.md 'Benchmark'): on the CI subset the exact set is "
     "named right on 10 of 11 records since session 18's phase guard (9 before; the miss is a barely excited "
-    "pre-sliding, seed 3), and the backlash width of seed 4 is 47 % off, its gap 31 % (target 30 %)"))
+    "pre-sliding, seed 3), and the backlash width of seed 4 (the lost motion, gap plus half the gear's wind-up) is "
+    "47 % off; its gap, refitted with the declared spring since session 32, is within 30 % (asserted below)"))
 def test_benchmark_targets_on_ci_subset(ci_benchmark):
     """The issue's exact-set and key-parameter targets on the fixed CI subset."""
     _, res = ci_benchmark
@@ -108,6 +109,14 @@ def test_benchmark_targets_on_ci_subset(ci_benchmark):
     for name, k in s["key_parameters"].items():
         if k["n"] and k["tolerance"] is not None:
             assert k["within_tolerance"] == k["n"], (name, k)
+
+
+def test_backlash_gap_on_ci_subset(ci_benchmark):
+    """The backlash gap the report gives with the drive's stiffness declared (refitted inside the
+    declared spring, session 32) is within the issue's 30 % on every CI record where backlash is named."""
+    _, res = ci_benchmark
+    k = res["summary"]["key_parameters"]["backlash.gap_rad"]
+    assert k["n"] >= 1 and k["within_tolerance"] == k["n"], k
 
 
 def test_score_counts_misses_the_record_could_not_decide():

@@ -483,6 +483,69 @@ def _gear_spring_losses(prep: Prepared, cur: FitResult, cfg: LoopConfig) -> tupl
     return cv_losses(prep, spring, cfg.k_folds), 2.0 * fc / k
 
 
+#: The gap's source in a report: refitted inside the declared spring, or the formula of :func:`backlash_gap`.
+GAP_REFITTED = "refitted with the gap inside the declared gear spring (geared_gap)"
+GAP_FORMULA = "the width minus half the spring's wind-up (backlash_gap)"
+
+
+def geared_gap(prep: Prepared, fit: FitResult, stiffness: float) -> tuple[float | None, dict[str, Any]]:
+    """The gear's gap refitted with the declared spring in the model, after the loop: (gap or None, how).
+
+    The loop names backlash with a play on the logged position, whose width is the motion lost at
+    a reversal (:func:`backlash_gap`). Given the drive's stiffness ``K`` the final model is refitted
+    with friction acting through the spring and the gap in its middle
+    (:func:`plant.calibration.fit.geared_coulomb`: the spring unwinds ``Fc/K``, the gap is crossed,
+    the spring winds up ``Fc/K``), only the gap free: a log grid from :data:`MIN_TRANSITION_COUNTS`
+    quanta to the fitted width, then refined. ``Fc`` sets the swing and is the fit's own Coulomb
+    level refitted with the spring (two passes, a fixed point, as the spring check of the loop).
+    The named effects do not change: the decision is the loop's, only the gap is estimated here.
+    Measured in docs/calibration.md, "Session 32" (decided on never-used seeds 4600–4659).
+
+    Parameters
+    ----------
+    prep : Prepared
+    fit : FitResult
+        The loop's final fit, with ``backlash_width`` set [rad or m].
+    stiffness : float
+        Declared stiffness between the logged position and the load [N·m/rad or N/m].
+
+    Returns
+    -------
+    (float or None, dict)
+        The gap [rad or m] and ``{"method", "swing"}`` (``swing = 2Fc/K`` [rad or m]); None where
+        the spring's swing or the width spans fewer than :data:`MIN_TRANSITION_COUNTS` quanta, or
+        the Coulomb level is not positive (the caller then uses :func:`backlash_gap`).
+
+    Raises
+    ------
+    ValueError
+        ``stiffness`` is not a positive finite number, or ``fit`` has no backlash.
+    """
+    check_stiffness(stiffness)
+    width = fit.spec.backlash_width
+    if width is None:
+        raise ValueError("geared_gap: the fit has no backlash width")
+    lo = MIN_TRANSITION_COUNTS * prep.position_resolution
+    fc = _coulomb(fit)
+    if not fc > 0 or 2.0 * fc / stiffness < lo or not width > lo:
+        return None, {"method": GAP_FORMULA, "swing": 2.0 * max(fc, 0.0) / stiffness}
+    best = None
+    for _ in range(2):   # the Coulomb level that sets the swing, refitted with the spring and the gap
+        base = dataclasses.replace(fit.spec.copy(), gear_stiffness=stiffness, spring_coulomb=fc)
+        best = None
+        for g in np.logspace(math.log10(lo), math.log10(width), 14):
+            f = fit_model(prep, dataclasses.replace(base.copy(), backlash_width=float(g)), refine=False)
+            if best is None or f.rss < best.rss:
+                best = f
+        i = _hyper_index(best.spec, "backlash_width")
+        best = fit_model(prep, best.spec, free=[i], rel_bounds={i: 0.6})
+        fc_new = _coulomb(best)
+        if not fc_new > 0 or 2.0 * fc_new / stiffness < lo:
+            return None, {"method": GAP_FORMULA, "swing": 2.0 * max(fc_new, 0.0) / stiffness}
+        fc = fc_new
+    return float(best.spec.backlash_width), {"method": GAP_REFITTED, "swing": 2.0 * fc / stiffness}
+
+
 def _replaces_inertia(cur: FitResult, new: FitResult) -> str | None:
     """None unless the candidate fit drives a positive inertia to its bound 0, else why it is refused.
 

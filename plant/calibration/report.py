@@ -26,7 +26,8 @@ import numpy as np
 from plant.calibration import residuals as res
 from plant.calibration.fit import FitResult, prepare
 from plant.calibration.io import Record, load_record
-from plant.calibration.loop import LoopConfig, LoopResult, backlash_gap, check_stiffness, friction_levels, run_loop
+from plant.calibration.loop import (GAP_FORMULA, LoopConfig, LoopResult, backlash_gap, check_stiffness, friction_levels,
+                                     geared_gap, run_loop)
 
 __all__ = ["calibrate", "param_names", "effect_params"]
 
@@ -255,9 +256,12 @@ def calibrate(
     from plant.calibration.model_file import write_model_file
 
     gap = None
+    gap_how: dict[str, Any] = {}
     if gear_stiffness is not None and result.final.spec.backlash_width is not None:
-        fc, ts = friction_levels(result.final)
-        gap = backlash_gap(result.final.spec.backlash_width, fc, ts, gear_stiffness)
+        gap, gap_how = geared_gap(prep, result.final, gear_stiffness)
+        if gap is None:   # the spring's swing is not resolved: subtract half of it from the lost motion
+            fc, ts = friction_levels(result.final)
+            gap = backlash_gap(result.final.spec.backlash_width, fc, ts, gear_stiffness)
     model_path = write_model_file(result, out / "calibrated_parameters.yaml", rec.name, axis=axis,
                                   backlash_gap=gap)
     effects = []
@@ -268,6 +272,7 @@ def calibrate(
             if gap is not None:
                 extra["gap_m" if linear else "gap_rad"] = gap
                 extra["gear_stiffness"] = gear_stiffness
+                extra["gap_method"] = gap_how.get("method", GAP_FORMULA)
         effects.append(
             {
                 "kind": acc.kind,
@@ -373,8 +378,8 @@ def _markdown(r: dict[str, Any]) -> str:
         if "width_meaning" in e:
             gk = "gap_m" if "gap_m" in e else "gap_rad"
             L += [f"   Note: {e['width_meaning']}."
-                  + (f" With the gear stiffness {_fmt(e['gear_stiffness'])}: **{gk} = {_fmt(e[gk])}** (written to the plant "
-                     "file)." if gk in e else "")]
+                  + (f" With the gear stiffness {_fmt(e['gear_stiffness'])}: **{gk} = {_fmt(e[gk])}** ("
+                     f"{e.get('gap_method', GAP_FORMULA)}; written to the plant file)." if gk in e else "")]
     L += ["", "## Final model", "", "| parameter | value | ±1σ (eff.) |", "|---|---|---|"]
     for k, v in r["final"]["params"].items():
         L.append(f"| {k} | {_fmt(v)} | {_fmt(r['uncertainty']['final_std'].get(k, ''))} |")
