@@ -100,7 +100,7 @@ SIGNIFICANCE_TEXT = (
 LOST_MOTION_TEXT = (
     "the width is the motion lost at a reversal as the logged position sees it: in a compliant drive the gap plus "
     "half the gear's wind-up, width ≈ gap + (Fc + Ts)/(2k); give the drive's stiffness (--gear-stiffness) for the "
-    "gap (docs/calibration.md, 'Session 15')"
+    "gap (docs/calibration.md, 'Session 15', 'Session 32')"
 )
 
 
@@ -229,9 +229,12 @@ def calibrate(
         records], from the drive's design. A pre-sliding or backlash effect must then also
         predict better than the current model with this spring in it
         (:func:`plant.calibration.loop._beats_gear_spring`). The fitted backlash width is the motion lost at a
-        reversal (the gap plus half the gear's wind-up, :func:`plant.calibration.loop.backlash_gap`);
-        with the stiffness the report also gives the gap, and the plant file — whose gear adds
-        its own wind-up — receives the gap instead of the width.
+        reversal (the gap plus half the gear's wind-up); with the stiffness the report also gives
+        the gap — refitted after the loop with the gap inside the declared spring
+        (:func:`plant.calibration.loop.geared_gap`, session 32), or, where the spring's swing is
+        under 10 position quanta, the width minus half the wind-up
+        (:func:`plant.calibration.loop.backlash_gap`) — and says which; the plant file, whose gear
+        adds its own wind-up, receives the gap instead of the width.
 
     Returns
     -------
