@@ -7,7 +7,8 @@ Algorithm
    effect and at least 2 % of the moving samples lie below ``2·vs`` (see :func:`fit_baseline`).
 2. **Candidates**, one builder per kind of the :mod:`plant.effects` registry (:data:`KINDS` is that
    registry; an import-time check makes sure every registered kind has a builder): asymmetric
-   friction; pre-sliding (LuGre bristle state) and backlash (play operator), which compete for the
+   friction where the axis moves both ways (≥ :data:`MIN_SAMPLES_PER_DIRECTION` moving samples on
+   each side); pre-sliding (LuGre bristle state) and backlash (play operator), which compete for the
    residual at reversals; position-periodic terms at the strongest peaks of the residual's position
    spectrum with ≥ 2 cycles over the travel, and time-periodic terms at the strongest peaks of its
    time spectrum with ≥ 2 cycles in the record, their period/frequency refined by the fit within
@@ -723,8 +724,23 @@ def _grid_then_fit(ctx: _Ctx, new: ModelSpec, name: str, values: np.ndarray, rel
     return fit_model(ctx.prep, best.spec, free=[i], rel_bounds={i: rel})
 
 
+#: Moving samples (``residuals.moving_mask``) each direction needs before a direction-dependent
+#: friction is tried: the count below which ``residuals.velocity_profile`` cannot give that side's
+#: slope, the candidate's own evidence (docs/calibration.md, "Session 32").
+MIN_SAMPLES_PER_DIRECTION = 10
+
+
+def both_directions(prep: Prepared) -> tuple[int, int]:
+    """Moving samples (``residuals.moving_mask``) with ``w > 0`` and with ``w < 0`` on the decimated rows."""
+    mov = res.moving_mask(prep.dq_dec)
+    return int(np.count_nonzero(mov & (prep.dq_dec > 0))), int(np.count_nonzero(mov & (prep.dq_dec < 0)))
+
+
 def _b_asymmetric(ctx: _Ctx) -> list[dict[str, Any]]:
     if "asymmetric_friction" in ctx.present:
+        return []
+    if min(both_directions(ctx.prep)) < MIN_SAMPLES_PER_DIRECTION:
+        # one-way motion: the other direction's friction is not in the record (run_loop says so once)
         return []
     a = res.velocity_profile(ctx.prep.dq_dec, ctx.cur.residual)["asymmetry"]
     f = fit_model(ctx.prep, dataclasses.replace(ctx.cur.spec.copy(), asymmetric=True))
@@ -1201,6 +1217,12 @@ def run_loop(
     speed_typ = typical_speed(prep)
     undecided: dict[str, dict[str, Any]] = {}
     phase_hz, phase_share = periodic_motion_hz(prep)
+    n_pos, n_neg = both_directions(prep)
+    if min(n_pos, n_neg) < MIN_SAMPLES_PER_DIRECTION:
+        rejected.append({"kind": "asymmetric_friction", "step": 1, "cv_gain_pct": None, "cv_z": None, "explained_pct": None,
+                         "reason": (f"not tried: the axis moves one way only ({n_pos} moving samples with w > 0, {n_neg} with "
+                                    f"w < 0; {MIN_SAMPLES_PER_DIRECTION} needed on each side): the other direction's friction "
+                                    "is not in the record")})
     # the guard's harmonics: as many as the motion's velocity needs (session 25), at least PHASE_HARMONICS
     phase_k = motion_harmonics(prep, phase_hz) if phase_hz is not None else PHASE_HARMONICS
     t_span = float(prep.t[-1] - prep.t[0])
