@@ -706,6 +706,8 @@ class _Ctx:
     linear: bool
     span: float
     vmax: float
+    #: the axis moves both ways (:func:`both_directions`, computed once per run)
+    two_way: bool = True
 
     @property
     def unit_pos(self) -> str:
@@ -739,7 +741,7 @@ def both_directions(prep: Prepared) -> tuple[int, int]:
 def _b_asymmetric(ctx: _Ctx) -> list[dict[str, Any]]:
     if "asymmetric_friction" in ctx.present:
         return []
-    if min(both_directions(ctx.prep)) < MIN_SAMPLES_PER_DIRECTION:
+    if not ctx.two_way:
         # one-way motion: the other direction's friction is not in the record (run_loop says so once)
         return []
     a = res.velocity_profile(ctx.prep.dq_dec, ctx.cur.residual)["asymmetry"]
@@ -1218,7 +1220,8 @@ def run_loop(
     undecided: dict[str, dict[str, Any]] = {}
     phase_hz, phase_share = periodic_motion_hz(prep)
     n_pos, n_neg = both_directions(prep)
-    if min(n_pos, n_neg) < MIN_SAMPLES_PER_DIRECTION:
+    two_way = min(n_pos, n_neg) >= MIN_SAMPLES_PER_DIRECTION
+    if not two_way:
         rejected.append({"kind": "asymmetric_friction", "step": 1, "cv_gain_pct": None, "cv_z": None, "explained_pct": None,
                          "reason": (f"not tried: the axis moves one way only ({n_pos} moving samples with w > 0, {n_neg} with "
                                     f"w < 0; {MIN_SAMPLES_PER_DIRECTION} needed on each side): the other direction's friction "
@@ -1232,7 +1235,7 @@ def run_loop(
     step = 0
     while len(accepted) < cfg.max_effects and step < cfg.max_effects + 2:
         step += 1
-        ctx = _Ctx(prep, cur, present, cfg, linear, span, vmax)
+        ctx = _Ctx(prep, cur, present, cfg, linear, span, vmax, two_way)
         cands = _candidates(ctx)
         if not cands:
             break
