@@ -978,9 +978,12 @@ def periodic_motion(prep: Prepared) -> tuple[float | None, float, int]:
     (the peak may be a harmonic), and, since a bin (1/T) is wider than ±3 % when the record holds
     fewer than about 17 cycles, on ± one bin around each of them (41 points, then 21 around the
     best of those at the most harmonics; session 25); the share is measured on the full-rate velocity taken every
-    decimation step (evenly spaced, standstills included). On a periodic motion position,
-    velocity, acceleration and the motion's own time lines are functions of one phase, so a smooth
-    term can stand in for the model's error (see :func:`run_loop`, the phase guard).
+    decimation step (evenly spaced, standstills included). The best share can fall on a
+    sub-harmonic: on a sinusoid of ≥ 6 cycles f/2 explains all that f does (its 2nd harmonic is f),
+    so the fundamental reported (and the guard's lines) can be f/2, f, 3f/2. Taking the shortest
+    period instead was measured and not kept (docs/calibration.md, "Session 33"). On a periodic
+    motion position, velocity, acceleration and the motion's own time lines are functions of one
+    phase, so a smooth term can stand in for the model's error (see :func:`run_loop`, the phase guard).
 
     Returns
     -------
@@ -1011,20 +1014,19 @@ def periodic_motion(prep: Prepared) -> tuple[float | None, float, int]:
     if not ok.any():
         return None, 0.0, PHASE_HARMONICS
     f_peak = float(freqs[int(np.argmax(np.where(ok, spec, 0.0)))])
-    # (fundamental, shares, the divisor of the peak it was searched around)
-    grid: list[tuple[float, np.ndarray, int]] = []
+    grid: list[tuple[float, np.ndarray]] = []
 
-    def add(fs_hz, div: int) -> None:
+    def add(fs_hz) -> None:
         for f in fs_hz:
             if f * t[-1] < min_cycles:
                 continue
             k_max = max(PHASE_HARMONICS, min(PERIODIC_MAX_HARMONICS, int(0.25 * fs / f)))
-            grid.append((float(f), _harmonic_shares(t, v, var, float(f), k_max), div))
+            grid.append((float(f), _harmonic_shares(t, v, var, float(f), k_max)))
 
     bin_hz = 1.0 / t[-1]
-    for div in (1, 2, 3):
+    for div in (1.0, 2.0, 3.0):
         f_c = f_peak / div
-        add(np.linspace(0.97 * f_c, 1.03 * f_c, 61), div)
+        add(np.linspace(0.97 * f_c, 1.03 * f_c, 61))
         # With few cycles a bin (1/T) is wider than ±3 %: the fundamental lies within one bin of
         # the strongest one (session 25, second change). A coarse pass over ±1 bin, then a fine
         # pass over ± one coarse step around its best fundamental at the most harmonics.
@@ -1033,28 +1035,22 @@ def periodic_motion(prep: Prepared) -> tuple[float | None, float, int]:
         if hi <= lo:
             continue
         n0 = len(grid)
-        add(np.linspace(lo, hi, 41), div)
+        add(np.linspace(lo, hi, 41))
         coarse = grid[n0:]
         if coarse:
             f_best = max(coarse, key=lambda g: g[1][-1])[0]
             d = (hi - lo) / 40
-            add(np.linspace(f_best - d, f_best + d, 21), div)
+            add(np.linspace(f_best - d, f_best + d, 21))
     if not grid:
         return None, 0.0, PHASE_HARMONICS
-    # The fundamental is the motion's shortest period (session 33): at each K the search around the
-    # peak itself comes first, then around half and a third of it. A sub-harmonic f/n explains all
-    # that f does (its n-th harmonic is f) and fits the noise on its extra lines besides, so the best
-    # share alone prefers it — and the phase guard then holds only K/n of the motion's harmonics
-    # (on a sinusoid, one of three).
     for k in range(PHASE_HARMONICS, PERIODIC_MAX_HARMONICS + 1):
-        for d in (1, 2, 3):
-            best_f, best_share = None, 0.0
-            for f, sh, dv in grid:
-                if dv == d and sh.size >= k and sh[k - 1] > best_share:
-                    best_f, best_share = f, float(sh[k - 1])
-            if best_f is not None and best_share >= PERIODIC_MIN_SHARE:
-                return best_f, best_share, k
-    return None, max(float(sh[-1]) for _, sh, _ in grid), PHASE_HARMONICS
+        best_f, best_share = None, 0.0
+        for f, sh in grid:
+            if sh.size >= k and sh[k - 1] > best_share:
+                best_f, best_share = f, float(sh[k - 1])
+        if best_f is not None and best_share >= PERIODIC_MIN_SHARE:
+            return best_f, best_share, k
+    return None, max(float(sh[-1]) for _, sh in grid), PHASE_HARMONICS
 
 
 def periodic_motion_hz(prep: Prepared) -> tuple[float | None, float]:
