@@ -1233,8 +1233,12 @@ def run_loop(
     phase_k = motion_harmonics(prep, phase_hz) if phase_hz is not None else PHASE_HARMONICS
     t_span = float(prep.t[-1] - prep.t[0])
     if phase_hz is not None:
+        # the lines themselves, so that a reader can check them against the motion: the fundamental can be a
+        # sub-harmonic of the motion's own (session 33; periodic_motion's docstring)
+        lines = ", ".join(f"{k * phase_hz:.4g}" for k in range(1, phase_k + 1))
         log.append(f"periodic motion: {phase_k} harmonics of {phase_hz:.5g} Hz explain {100 * phase_share:.1f} % of the "
-                   "velocity; smooth position and time terms must also predict with them in both models (phase guard)")
+                   f"velocity; smooth position and time terms must also predict with them ({lines} Hz) in both models "
+                   "(phase guard)")
     step = 0
     while len(accepted) < cfg.max_effects and step < cfg.max_effects + 2:
         step += 1
