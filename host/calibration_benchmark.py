@@ -15,9 +15,10 @@ loop named against what was hidden:
   nothing named);
 * **false positives** on clean and on out-of-library records (any kind named), and for
   out-of-library records whether ``unexplained`` carries the structure;
-* **misses the record could not decide**: records wrong only by missing reversal effects that
-  the report lists in ``undecided`` (too few reversals for the rule to pass; per record the kinds,
-  reversals and the number needed) — still counted as wrong;
+* **misses the record could not decide**: records wrong only by missing effects that the report
+  lists in ``undecided`` (a reversal effect on too few reversals for the rule to pass, with the
+  reversals and the number needed; or a term the phase guard refuses on a periodic motion) — still
+  counted as wrong;
 * **key-parameter errors** of correctly named kinds (period/frequency: relative error, target
   3 %; amplitudes, backlash width, asymmetric viscous coefficients: 30 %; σ0 reported, no target);
 * **time and peak memory** per record and per sample.
@@ -267,7 +268,7 @@ def run_benchmark(out_dir: str | Path, seeds: tuple[int, ...] | list[int] = DEFA
             entry["named"] = [e["kind"] for e in res["effects"]]
             entry["effects"] = res["effects"]
             entry["unexplained"] = res["unexplained"]
-            entry["undecided"] = [{k: u[k] for k in ("kind", "cv_gain_pct", "n_reversals", "min_reversals")}
+            entry["undecided"] = [{k: u[k] for k in ("kind", "reason", "cv_gain_pct", "n_reversals", "min_reversals") if k in u}
                                   for u in res["undecided"]]
             entry["conclusion"] = res["conclusion"]
             entry["wall_s"] = res["wall_s"]
@@ -345,7 +346,8 @@ def markdown(result: dict[str, Any]) -> str:
          f"max {s['memory']['max_peak_rss_mb']:.0f} MB" if s["memory"]["median_peak_rss_mb"] is not None else "- memory: —",
          ]
     mu = s.get("missed_reported_undecided", {"n": 0, "seeds": []})
-    L.append(f"- records wrong only by effects the report lists as not decided by the record (too few reversals): "
+    L.append(f"- records wrong only by effects the report lists as not decided by the record (too few reversals, or a "
+             f"periodic motion): "
              f"{mu['n']}/{s['n_records'] - s['n_exact']} of the wrong ones" + (f" — seeds {mu['seeds']}" if mu["seeds"] else ""))
     if s["failures"]:
         L.append(f"- runs that failed: seeds {s['failures']}")
@@ -371,12 +373,15 @@ def markdown(result: dict[str, Any]) -> str:
             tol = "—" if v["tolerance"] is None else f"{100 * v['tolerance']:g} %"
             L.append(f"| {k} | {v['n']} | {_pct(v['median_rel_err'])} | {_pct(v['max_rel_err'])} | {tol} | "
                      f"{'—' if v['within_tolerance'] is None else v['within_tolerance']} |")
-    L += ["", "## Records", "", "| seed | hidden | named | exact | unexplained | undecided: gain (reversals / needed) | fs [Hz] | samples | "
+    L += ["", "## Records", "", "| seed | hidden | named | exact | unexplained | undecided: gain (reversals / needed, or periodic) | "
+          "fs [Hz] | samples | "
           "trajectory | time [s] | peak RSS [MB] |",
           "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in result["records"]:
         un = "; ".join(f"{u['domain']} {u['share_pct']:.0f} %" for u in r.get("unexplained", []))
-        ud = "; ".join(f"{u['kind']} {u['cv_gain_pct']:.2g} % ({u['n_reversals']}/{u['min_reversals']})" for u in r.get("undecided", []))
+        ud = "; ".join(f"{u['kind']} {u['cv_gain_pct']:.2g} % "
+                       + (f"({u['n_reversals']}/{u['min_reversals']})" if "n_reversals" in u else "(periodic)")
+                       for u in r.get("undecided", []))
         L.append(f"| {r['seed']} | {', '.join(r['hidden']) or 'clean'} | {', '.join(r['named']) or '—'} | "
                  f"{'yes' if r.get('exact') else 'no'} | {un} | {ud} | {r['fs_hz']:g} | {r['n_samples']} | {r['trajectory']} | "
                  f"{r.get('wall_s', float('nan')):.1f} | {r.get('peak_rss_mb', float('nan')):.0f} |")

@@ -58,3 +58,34 @@ def test_no_undecided_entry_once_a_reversal_effect_is_decided(tmp_path):
     rep = calibrate(str(path), str(tmp_path / "out"), plots=False)
     assert [e["kind"] for e in rep["effects"]] == ["backlash"]
     assert rep["undecided"] == []
+
+
+def test_gravity_on_a_sinusoid_is_reported_undecided_by_the_phase_guard(tmp_path):
+    """A rigid axis on a 5-cycle sinusoid over ±0.3 rad (34° of travel) with a 3 N·m imbalance, written here from
+    the equations (open loop, encoder-quantised position; no code of ``plant/`` makes it): gravity
+    predicts held-out blocks, but on a periodic motion ``sin(θ + φ)`` is a function of the phase
+    and the guard refuses it (session 18). The report must say the record cannot decide it and what
+    would (session 33), not only list it among the rejected candidates."""
+    import math
+
+    from plant.calibration.fit import prepare
+    from plant.calibration.io import Record
+
+    fs, period, cycles, amp = 250.0, 12.0, 5, 0.3
+    t = np.arange(int(cycles * period * fs)) / fs
+    w = 2 * math.pi / period
+    q = amp * np.sin(w * t)
+    v = amp * w * np.cos(w * t)
+    a = -amp * w * w * np.sin(w * t)
+    tau = 3.0 * a + 12.0 * v + 1.5 * np.tanh(v / 1e-3) + 0.2 + 3.0 * np.sin(q + 0.7)
+    tau = tau + np.random.default_rng(5).normal(0.0, 0.03, t.size)
+    cpr = 2**21 / (2 * math.pi)
+    rec = Record(name="gravity_sinusoid", t_s=t, position=np.floor(q * cpr) / cpr, torque=tau)
+    res = loop.run_loop(prepare(rec))
+    assert "gravity_imbalance" not in [x.kind for x in res.accepted]
+    und = {u["kind"]: u for u in res.undecided}
+    assert "gravity_imbalance" in und, res.undecided
+    u = und["gravity_imbalance"]
+    assert u["reason"] == loop.UNDECIDED_PERIODIC and u["cv_gain_pct"] > 10
+    assert "n_reversals" not in u
+    assert "the motion is periodic" in u["note"] and "not periodic" in u["note"]

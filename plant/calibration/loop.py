@@ -70,7 +70,7 @@ from plant.effects import EFFECT_KINDS, Effect, build_effect
 
 __all__ = ["LoopConfig", "AcceptedEffect", "LoopResult", "fit_baseline", "run_loop", "delta_bic", "cv_compare", "min_events",
            "KINDS", "backlash_gap", "check_stiffness", "friction_levels", "periodic_motion_hz", "periodic_motion",
-           "motion_harmonics", "PERIODIC_MAX_HARMONICS"]
+           "motion_harmonics", "PERIODIC_MAX_HARMONICS", "UNDECIDED_REVERSALS", "UNDECIDED_PERIODIC"]
 
 #: The effect kinds the loop may name: exactly the :mod:`plant.effects` registry.
 KINDS: tuple[str, ...] = tuple(EFFECT_KINDS)
@@ -144,8 +144,10 @@ class LoopResult:
     linear: bool = False
     log: list[str] = dataclasses.field(default_factory=list)
     out_of_library: list[dict[str, Any]] = dataclasses.field(default_factory=list)
-    #: reversal effects the record cannot decide (see :func:`min_events`): kind, step, gain, z,
-    #: ``n_reversals``, ``min_reversals``, ``note``; never effects
+    #: effects the record cannot decide, never named: ``reason`` :data:`UNDECIDED_REVERSALS` (a reversal
+    #: effect on too few reversals, :func:`min_events`: ``n_reversals``, ``min_reversals``) or
+    #: :data:`UNDECIDED_PERIODIC` (refused by the phase guard after passing the rule: ``why``); kind,
+    #: step, gain, z, ``note``
     undecided: list[dict[str, Any]] = dataclasses.field(default_factory=list)
 
     def effects(self) -> list[Effect]:
@@ -1184,6 +1186,23 @@ def _gain_with_nuisance(prep: Prepared, cur: ModelSpec, cand: ModelSpec, nuisanc
     return cv_compare(cv_losses(prep, s0, k_folds), cv_losses(prep, s1, k_folds))
 
 
+#: ``undecided`` entries' reasons: too few reversals for a reversal effect (:func:`min_events`), or a
+#: periodic motion on which the candidate predicts only as well as a function of its phase (session 33)
+UNDECIDED_REVERSALS = "reversals"
+UNDECIDED_PERIODIC = "periodic"
+
+
+def _undecided_periodic(undecided: dict[str, dict[str, Any]], c: dict[str, Any], step: int, why: str) -> None:
+    """Record a candidate that predicts held-out blocks (it passed the rule) but that the phase guard
+    refuses: the record cannot tell it from the model's error along a periodic motion's phase, so
+    it is not decided by this record (issue 7: "an effect the record does not excite is not
+    found" — the report says so per record, as it does for too few reversals). The best gain of a
+    kind is kept."""
+    if c["cv_gain_pct"] > undecided.get(c["kind"], {}).get("cv_gain_pct", 0.0):
+        undecided[c["kind"]] = {"kind": c["kind"], "reason": UNDECIDED_PERIODIC, "step": step,
+                                "cv_gain_pct": c["cv_gain_pct"], "cv_z": c["cv_z"], "why": why}
+
+
 def _evaluate(prep: Prepared, c: dict[str, Any], loss_cur: np.ndarray, cfg: LoopConfig) -> None:
     c["loss"] = cv_losses(prep, c["fit"].spec, cfg.k_folds)
     c["cv_gain_pct"], c["cv_z"] = cv_compare(loss_cur, c["loss"])
@@ -1240,8 +1259,12 @@ def run_loop(
                    f"velocity; smooth position and time terms must also predict with them ({lines} Hz) in both models "
                    "(phase guard)")
     step = 0
+    settled = False   # the last step found nothing more to add (its candidates were tested against the final model)
     while len(accepted) < cfg.max_effects and step < cfg.max_effects + 2:
         step += 1
+        # a periodic entry describes the candidates against the current model: each step replaces them
+        for kind in [k for k, u in undecided.items() if u["reason"] == UNDECIDED_PERIODIC]:
+            del undecided[kind]
         ctx = _Ctx(prep, cur, present, cfg, linear, span, vmax, two_way)
         cands = _candidates(ctx)
         if not cands:
@@ -1266,7 +1289,8 @@ def run_loop(
                        f"(needs > 0 and z ≥ {zc:.2f})")
                 if (c["group"] == "reversal" and c["cv_gain_pct"] > 0 and n_rev < k_min
                         and c["cv_gain_pct"] > undecided.get(c["kind"], {}).get("cv_gain_pct", 0.0)):
-                    undecided[c["kind"]] = {"kind": c["kind"], "step": step, "cv_gain_pct": c["cv_gain_pct"], "cv_z": c["cv_z"],
+                    undecided[c["kind"]] = {"kind": c["kind"], "reason": UNDECIDED_REVERSALS, "step": step,
+                                            "cv_gain_pct": c["cv_gain_pct"], "cv_z": c["cv_z"],
                                             "n_reversals": n_rev, "min_reversals": k_min}
             elif c["kind"] in EFFECT_KINDS:
                 why = _resolved(c["fit"], prep.position_resolution) or _line_resolved(
@@ -1293,6 +1317,7 @@ def run_loop(
                            f"{100 * phase_share:.1f} % of the velocity) and the line at {f_c:.5g} Hz lies within one frequency "
                            f"bin (1/T = {1.0 / t_span:.3g} Hz) of its harmonic {k_near}: this record cannot resolve it from "
                            "a function of the motion's phase")
+                    _undecided_periodic(undecided, c, step, why)
             if why is None and phase_hz is not None and c["kind"] in PHASE_GUARDED:
                 # a periodic motion: must still predict with any smooth function of its phase in both models
                 g, z = _gain_with_nuisance(prep, cur.spec, c["fit"].spec, "phase_function", cfg.k_folds, phase_hz=phase_hz,
@@ -1302,6 +1327,7 @@ def run_loop(
                            f"{100 * phase_share:.1f} % of the velocity) and with those harmonics in the model the term no "
                            f"longer predicts (gain {g:.2f} %, z = {z:.1f}): on this record it cannot be told apart from a "
                            "smooth error of the model along the motion's phase")
+                    _undecided_periodic(undecided, c, step, why)
             if why is None and prep_val is not None and (c["kind"] in EFFECT_KINDS or c["kind"] in TRANSFERABLE):
                 _, vr = predict(prep_val, c["fit"])
                 c["val_rms"] = float(np.sqrt(np.mean(vr**2)))
@@ -1314,6 +1340,7 @@ def run_loop(
             passing.append(c)
         if not passing:
             log.append(f"step {step}: no candidate passes")
+            settled = True
             break
         chosen = passing[0]
         lib = [c for c in passing if c["kind"] in EFFECT_KINDS]
@@ -1375,13 +1402,22 @@ def run_loop(
         cur = f
         if prep_val is not None:
             val_cur = chosen["val_rms"]
-    # once a reversal effect is named its competitors lost to it: they are not undecided
-    und = [] if present & REVERSAL_KINDS else sorted(undecided.values(), key=lambda u: -u["cv_gain_pct"])
+    # a kind named later is decided; once a reversal effect is named its competitors lost to it; a periodic
+    # entry holds only if it was tested against the final model (the last step added nothing)
+    und = sorted((u for u in undecided.values()
+                  if u["kind"] not in present and not (u["kind"] in REVERSAL_KINDS and present & REVERSAL_KINDS)
+                  and (settled or u["reason"] != UNDECIDED_PERIODIC)),
+                 key=lambda u: -u["cv_gain_pct"])
     for u in und:
-        u["note"] = (f"predicts held-out blocks better by {u['cv_gain_pct']:.1f} % (z = {u['cv_z']:.1f}), but the record has "
-                     f"{u['n_reversals']} velocity reversal(s); a gain confined to the reversals needs at least "
-                     f"{u['min_reversals']} to pass the rule (k reversals that all improve give at best p = 2^-k): not "
-                     f"decided by this record — record at least {u['min_reversals']} reversals to decide it")
+        if u["reason"] == UNDECIDED_REVERSALS:
+            u["note"] = (f"predicts held-out blocks better by {u['cv_gain_pct']:.1f} % (z = {u['cv_z']:.1f}), but the record has "
+                         f"{u['n_reversals']} velocity reversal(s); a gain confined to the reversals needs at least "
+                         f"{u['min_reversals']} to pass the rule (k reversals that all improve give at best p = 2^-k): not "
+                         f"decided by this record — record at least {u['min_reversals']} reversals to decide it")
+        else:
+            u["note"] = (f"predicts held-out blocks better by {u['cv_gain_pct']:.1f} % (z = {u['cv_z']:.1f}), but {u['why']} — "
+                         "not decided by this record: record it on a motion that is not periodic (a staircase, or sweeps "
+                         "at different speeds) to decide it")
     vf = predict(prep_val, cur) if prep_val is not None else None
     vl = predict(prep_val, cur, library_only=True) if prep_val is not None else None
     return LoopResult(

@@ -6,8 +6,9 @@ rms_after, variance_explained_pct, evidence}``), ``final {params, rms, relative_
 ``validation {rms_before, rms_after, rms_after_library_only}`` (with a held-out record), ``unexplained`` (list of
 ``{domain, frequency, share_pct}``), ``model_file``. Extra keys: ``units``, ``uncertainty``,
 ``significance`` (the rule), ``stribeck`` (the decision), ``rejected`` (candidates turned down and
-why), ``undecided`` (reversal effects that predict better but that the record has too few
-reversals to decide, with the number it would need), ``closed_loop`` (EMPS records), ``log``.
+why), ``undecided`` (effects that predict better but that the record cannot decide: reversal
+effects on too few reversals, with the number it would need, and terms the phase guard refuses on a
+periodic motion; ``reason``, ``note``), ``closed_loop`` (EMPS records), ``log``.
 
 Parameter names carry units; for linear records (``--linear``, EMPS) they follow the record:
 ``mass_kg``, ``viscous_n_s_m``, ``coulomb_n``, ``period_m``, ``amplitude_n`` …
