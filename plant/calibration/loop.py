@@ -169,22 +169,60 @@ def _hyper_index(spec: ModelSpec, name: str, slot: int | None = None) -> int:
     raise KeyError(name)
 
 
-def cv_losses(prep: Prepared, spec: ModelSpec, k_folds: int = 8) -> np.ndarray:
+class CVErrors(np.ndarray):
+    """Blocked cross-validation prediction errors (an ndarray) with ``extrapolated``: a bool array of
+    the same shape, True where the held-out row lies outside its training rows' regressor hull
+    (:func:`hidden_extrapolation`)."""
+
+    extrapolated: np.ndarray
+
+
+def hidden_extrapolation(X_tr: np.ndarray, X_te: np.ndarray) -> np.ndarray:
+    """True for each row of ``X_te`` (shape (m, p)) that is a hidden extrapolation from the rows
+    ``X_tr`` (shape (n, p)) a least-squares fit was made on: its leverage ``xᵀ(X_trᵀX_tr)⁺x`` exceeds
+    the largest leverage of a training row, or it has a component in the null space of ``X_tr``
+    (the smallest ellipsoid around the regressor hull; Montgomery, Peck & Vining, *Introduction to
+    Linear Regression Analysis*, "hidden extrapolation"). There the fitted parameters are not pinned
+    by the data they were fitted on. No tolerance beyond numpy's rank cut-off (``lstsq``'s)."""
+    if X_tr.size == 0 or X_te.size == 0:
+        return np.zeros(X_te.shape[0], dtype=bool)
+    U, sv, Vt = np.linalg.svd(X_tr, full_matrices=False)
+    if sv.size == 0 or not sv[0] > 0:
+        return np.ones(X_te.shape[0], dtype=bool)
+    keep = sv > sv[0] * max(X_tr.shape) * np.finfo(float).eps
+    h_max = float(np.max(np.sum(U[:, keep] ** 2, axis=1)))
+    proj = X_te @ Vt[keep].T
+    h_te = np.sum((proj / sv[keep]) ** 2, axis=1)
+    out = h_te > h_max
+    if not keep.all():
+        resid = X_te - proj @ Vt[keep]
+        scale = np.linalg.norm(X_te, axis=1)
+        out |= np.linalg.norm(resid, axis=1) > 1e3 * np.finfo(float).eps * max(X_tr.shape) * np.maximum(scale, 1e-300)
+    return out
+
+
+def cv_losses(prep: Prepared, spec: ModelSpec, k_folds: int = 8) -> CVErrors:
     """Prediction errors of blocked cross-validation (decimated samples, time order; square them for the loss).
 
     Each of ``k_folds`` contiguous blocks is predicted by the linear parameters fitted (with their
-    bounds) on the other blocks; hyper-parameters are those of ``spec``.
+    bounds) on the other blocks; hyper-parameters are those of ``spec``. The result carries
+    ``extrapolated`` (:class:`CVErrors`): the held-out rows that are hidden extrapolations from their
+    fold's training rows (:func:`hidden_extrapolation`; session 33).
     """
     names, X = design(prep, spec)
     y = prep.y_dec
     n = y.size
     edges = np.linspace(0, n, k_folds + 1).astype(int)
     pred = np.empty(n)
+    ext = np.zeros(n, dtype=bool)
     for a, b in zip(edges[:-1], edges[1:]):
         tr = np.r_[0:a, b:n]
         coef, _ = _solve(X[tr], y[tr], names)
         pred[a:b] = X[a:b] @ coef
-    return y - pred
+        ext[a:b] = hidden_extrapolation(X[tr], X[a:b])
+    err = (y - pred).view(CVErrors)
+    err.extrapolated = ext
+    return err
 
 
 def cv_compare(err0: np.ndarray, err1: np.ndarray, n_batches: int = 40) -> tuple[float, float]:
@@ -199,8 +237,17 @@ def cv_compare(err0: np.ndarray, err1: np.ndarray, n_batches: int = 40) -> tuple
     reversals, asymmetric friction mostly in one direction's segments), and the spread of such
     gains between batches inflates the standard error of a mean-based test, while the ranks see
     that the large changes are all improvements. Under the null (no better prediction) the batch
-    differences are symmetric about a value ≤ 0.
+    differences are symmetric about a value ≤ 0. Samples that model 1 can only extrapolate to and
+    model 0 cannot (``CVErrors.extrapolated``) are left out of both losses (session 33).
     """
+    # samples model 1 can only extrapolate to and model 0 cannot: model 1's extra parameters are not
+    # pinned there by the rows its fold was fitted on, so neither loss counts them (session 33)
+    e0 = getattr(err0, "extrapolated", None)
+    e1 = getattr(err1, "extrapolated", None)
+    err0, err1 = np.asarray(err0), np.asarray(err1)
+    if e0 is not None and e1 is not None:
+        use = ~(e1 & ~e0)
+        err0, err1 = err0[use], err1[use]
     loss0, loss1 = err0**2, err1**2
     d = loss0 - loss1
     m0 = float(np.mean(loss0))
