@@ -183,7 +183,10 @@ def hidden_extrapolation(X_tr: np.ndarray, X_te: np.ndarray) -> np.ndarray:
     the largest leverage of a training row, or it has a component in the null space of ``X_tr``
     (the smallest ellipsoid around the regressor hull; Montgomery, Peck & Vining, *Introduction to
     Linear Regression Analysis*, "hidden extrapolation"). There the fitted parameters are not pinned
-    by the data they were fitted on. No tolerance beyond numpy's rank cut-off (``lstsq``'s)."""
+    by the data they were fitted on. The rank cut-off is numpy's ``lstsq``'s (``max(n, p)·eps`` of the
+    largest singular value); a null-space component counts when it exceeds 10³ times that relative
+    to the row's norm, which only allows for rounding (a numerical tolerance, not a threshold on
+    the data). Session 33, docs/calibration.md."""
     if X_tr.size == 0 or X_te.size == 0:
         return np.zeros(X_te.shape[0], dtype=bool)
     U, sv, Vt = np.linalg.svd(X_tr, full_matrices=False)

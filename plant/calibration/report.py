@@ -81,8 +81,9 @@ def effect_params(spec: dict[str, Any], linear: bool) -> dict[str, Any]:
 
 SIGNIFICANCE_TEXT = (
     "A candidate effect is added when it predicts data the fit did not see: the record is cut into {k} contiguous "
-    "time blocks, each predicted by the model fitted on the others; the reduction of the squared prediction error, "
-    "averaged over 40 contiguous batches, must be positive overall and significant by Wilcoxon's signed-rank test "
+    "time blocks, each predicted by the model fitted on the others (held-out samples that only the candidate's fold "
+    "extrapolates to, leverage above that of every training row, count in neither loss); the reduction of the "
+    "squared prediction error, averaged over 40 contiguous batches, must be positive overall and significant by Wilcoxon's signed-rank test "
     "(Diebold-Mariano 1995) at a family-wise error of {alpha:g} over all candidate tests of the run (Bonferroni: "
     "z >= about 3.6 for 12 candidates x 5 steps). Parameters are fitted inside physical bounds. With --validate the "
     "held-out rms must fall too. Of the candidates that pass, the largest predictive gain wins; the others are "
