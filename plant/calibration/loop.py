@@ -307,14 +307,7 @@ def fit_baseline(prep: Prepared, cfg: LoopConfig | None = None) -> tuple[FitResu
     if v95 <= 0:
         decision["reason"] = "no motion"
         return base, decision
-    grid = v95 * np.logspace(math.log10(0.003), math.log10(0.3), 12)
-    best = None
-    for vs in grid:
-        f = fit_model(prep, ModelSpec(stribeck_vs=float(vs)), refine=False)
-        if best is None or f.rss < best.rss:
-            best = f
-    assert best is not None
-    best = fit_model(prep, best.spec, rel_bounds=0.5)
+    best = fit_stribeck(prep, ModelSpec())
     gain, z = cv_compare(cv_losses(prep, base.spec, cfg.k_folds), cv_losses(prep, best.spec, cfg.k_folds))
     k = best.names.index("stribeck")
     excess, sd = float(best.coef[k]), float(best.std_eff[k])
@@ -338,6 +331,51 @@ def fit_baseline(prep: Prepared, cfg: LoopConfig | None = None) -> tuple[FitResu
         why.append(f"only {100 * slow_share:.1f} % of moving samples below 2·vs")
     decision["reason"] = "; ".join(why)
     return base, decision
+
+
+def fit_stribeck(prep: Prepared, spec: ModelSpec) -> FitResult:
+    """``spec`` with the Stribeck term added, its velocity ``vs`` chosen on a log grid (0.3 %–30 % of
+    the 95th-percentile speed, 12 points; the lowest rss) and refined within ±50 %: the search of
+    :func:`fit_baseline`, also used by :func:`_beats_stribeck` on the current model."""
+    v95 = float(np.percentile(np.abs(prep.dq_dec), 95))
+    best = None
+    for vs in v95 * np.logspace(math.log10(0.003), math.log10(0.3), 12):
+        f = fit_model(prep, dataclasses.replace(spec.copy(), stribeck_vs=float(vs)), refine=False)
+        if best is None or f.rss < best.rss:
+            best = f
+    assert best is not None
+    return fit_model(prep, best.spec, rel_bounds=0.5)
+
+
+def _beats_stribeck(prep: Prepared, cur: FitResult, c: dict[str, Any], zc: float, cfg: LoopConfig,
+                    cache: dict[str, Any]) -> str | None:
+    """None if the reversal candidate ``c`` still predicts held-out blocks better (the rule, at the
+    same level ``zc``) with the Stribeck term in both the current model and the candidate, else why not.
+
+    Applied only while the current model has no Stribeck term (the baseline left it out: too few
+    slow samples, or no significant gain on its own). Near every reversal the velocity passes
+    through the Stribeck region, so without the term the reversal kinds are the only candidates
+    that can take the low-speed friction error there; a real transition (a bristle, a dead zone)
+    keeps its gain once that error has its own description. The term's ``vs`` is re-chosen on the
+    current model (:func:`fit_stribeck`), once per step (``cache``, one dict per step). An
+    intersection of tests at one level: it can miss an effect, it cannot add one. Found on clean
+    records 8263 and 8318 (pre-sliding of 68 and 170 counts where the generator's is below one);
+    docs/calibration.md, "Session 34".
+    """
+    if cur.spec.stribeck_vs is not None:
+        return None
+    if "loss" not in cache:
+        s = fit_stribeck(prep, cur.spec)
+        cache["vs"], cache["loss"] = s.spec.stribeck_vs, cv_losses(prep, s.spec, cfg.k_folds)
+    vs = cache["vs"]
+    cand = fit_model(prep, dataclasses.replace(c["fit"].spec.copy(), stribeck_vs=vs))
+    g, z = cv_compare(cache["loss"], cv_losses(prep, cand.spec, cfg.k_folds))
+    c["gain_with_stribeck_pct"], c["z_with_stribeck"] = g, z
+    if predicts(g, z, zc):
+        return None
+    return (f"with the Stribeck term (vs = {vs:.3g}, which the current model lacks) in both models the candidate no "
+            f"longer predicts (gain {g:.2f} %, z = {z:.1f}, needs z ≥ {zc:.2f}): the reversal residual is low-speed "
+            "friction, not a transition")
 
 
 MIN_TRANSITION_COUNTS = 10.0
@@ -1321,6 +1359,7 @@ def run_loop(
             break
         loss_cur = cv_losses(prep, cur.spec, cfg.k_folds)
         spring_cache: dict[str, Any] = {}   # the declared spring's model, once per step (_beats_gear_spring)
+        stribeck_cache: dict[str, Any] = {}   # the current model with the Stribeck term, once per step (_beats_stribeck)
         for c in cands:
             _evaluate(prep, c, loss_cur, cfg)
             c["explained_pct"] = 100.0 * (cur.rss - c["fit"].rss) / cur.rss
@@ -1351,6 +1390,8 @@ def run_loop(
                 why = _viscous_split_predicts(prep, c, zc, cfg)
             if why is None and c["group"] == "reversal" and cfg.gear_stiffness is not None:
                 why = _beats_gear_spring(prep, cur, c, cfg, spring_cache)
+            if why is None and c["group"] == "reversal":
+                why = _beats_stribeck(prep, cur, c, zc, cfg, stribeck_cache)
             if why is None and c["kind"] == "time_periodic" and c["motion_share"] >= 0.02:
                 # the motion has a line here: must still predict with a flexible velocity function in both models
                 g, z = _gain_with_nuisance(prep, cur.spec, c["fit"].spec, "velocity_function", cfg.k_folds)
@@ -1440,6 +1481,9 @@ def run_loop(
                  f"{out_of_play}." if out_of_play else "")
               + (f" It also predicts better than the declared gear spring alone (gain {chosen['gain_over_spring_pct']:.1f} %, z = {chosen['z_over_spring']:.1f}; a point estimate is the test here)."
                  if "gain_over_spring_pct" in chosen else "")
+              + (f" It still predicts with the Stribeck term, which the model lacks, in both models (gain "
+                 f"{chosen['gain_with_stribeck_pct']:.1f} %, z = {chosen['z_with_stribeck']:.1f}): a transition, not "
+                 "low-speed friction." if "gain_with_stribeck_pct" in chosen else "")
               + (f" Its direction-dependent viscous friction predicts better than a symmetric one with the Coulomb level "
                  f"split (gain {chosen['gain_over_coulomb_split_pct']:.1f} %, z = {chosen['z_over_coulomb_split']:.1f})."
                  if "gain_over_coulomb_split_pct" in chosen else ""))
