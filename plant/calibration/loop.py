@@ -43,7 +43,9 @@ Algorithm
    resolved and not added, nor are time or position lines whose amplitude, as the inertial torque
    of a motion, is a displacement under that many quanta (:func:`_line_resolved`). A candidate whose
    fit drives a positive inertia to its bound 0 stands in for the inertia and is refused
-   (:func:`_replaces_inertia`).
+   (:func:`_replaces_inertia`). While the current model has no Stribeck term, a pre-sliding or
+   backlash candidate must pass the test again with that term in both models
+   (:func:`_beats_stribeck`: near every reversal the velocity crosses the Stribeck region).
 4. **Out-of-library structure**: a winning out-of-library description is kept in the working model
    (so library effects can still be found on top) but never written to the plant file; it and any
    spectral peak still standing (share ≥ ``unexplained_min_share_pct``, false-alarm probability
