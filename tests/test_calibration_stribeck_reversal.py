@@ -89,3 +89,24 @@ def test_never_used_clean_seed_8263_names_nothing(tmp_path):
     r.write_csv(tmp_path / "rec.csv")
     rep = calibrate(str(tmp_path / "rec.csv"), str(tmp_path / "out"), plots=False)
     assert [e["kind"] for e in rep["effects"]] == [], rep["log"]
+
+
+def test_fixed_seed_23_stribeck_velocity_rechosen_once_the_line_is_in_the_model(tmp_path):
+    """Session 35: the rule also runs when the model has the Stribeck term and a re-chosen ``vs``
+    fits the current model better. Fixed seed 23 (a 6.6 N·m time line on a tracking run, one
+    reversal): the baseline chose ``vs = 0.032`` against a residual the line then explained; main
+    named an extra pre-sliding (5.1 %, z 4.9) beside the line. With ``vs`` re-chosen on the model
+    with the line (the generator's 0.0115) the pre-sliding no longer predicts, and the refusal says so."""
+    from plant.calibration import bench_records
+    from plant.calibration.report import calibrate
+
+    r = bench_records.make_record(23)
+    assert r.hidden == ("time_periodic",)
+    r.write_csv(tmp_path / "rec.csv")
+    rep = calibrate(str(tmp_path / "rec.csv"), str(tmp_path / "out"), plots=False)
+    assert rep["stribeck"]["included"], rep["log"]   # the case at hand: the model has the term
+    assert [e["kind"] for e in rep["effects"]] == ["time_periodic"], rep["log"]
+    why = [x["reason"] for x in rep["rejected"] if x["kind"] == "presliding" and "re-chosen on the current model" in x["reason"]]
+    assert why, rep["rejected"]
+    vs = float(why[0].split("vs = ")[1].split(",")[0])
+    assert 0.5 * r.meta["vs"] < vs < 2 * r.meta["vs"]   # the generator's Stribeck velocity

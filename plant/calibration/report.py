@@ -93,8 +93,9 @@ SIGNIFICANCE_TEXT = (
     "line within one frequency bin (1/T) of one of them is refused (the phase guard). Transitions under 10 position "
     "quanta are not resolved and not added, nor are time or position lines whose amplitude, as the inertial torque "
     "of a motion (A/(J w^2)), moves the axis by under 10 quanta, unless a position line lies at a declared period of "
-    "the drive (--drive-periods). While the model has no Stribeck term, a pre-sliding or backlash candidate must "
-    "also predict with that term in both models (low-speed friction at the reversals is not a transition). Out-of-library "
+    "the drive (--drive-periods). A pre-sliding or backlash candidate must also predict with the Stribeck term in both "
+    "models, its velocity re-chosen on the current model (where the model lacks the term, or where the re-chosen one "
+    "fits it better): low-speed friction at the reversals is not a transition. Out-of-library "
     "descriptions (friction drift, delay) compete as well and win only when significantly better than the best "
     "library candidate; a winner is reported in 'unexplained', never written to the plant file."
 )
