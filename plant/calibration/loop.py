@@ -575,20 +575,56 @@ def _viscous_split_predicts(prep: Prepared, c: dict[str, Any], zc: float, cfg: L
             f"z ≥ {zc:.2f}) — no asymmetry the record can attribute")
 
 
-def _gear_spring_losses(prep: Prepared, cur: FitResult, cfg: LoopConfig) -> tuple[np.ndarray, float] | None:
-    """CV prediction errors of the current model with the declared spring in it, and the spring's
-    swing ``2Fc/K``; None where the swing is under :data:`MIN_TRANSITION_COUNTS` quanta. ``Fc``
-    starts at the current fit's Coulomb level and is refitted twice with the spring."""
+def _spring_coulomb(prep: Prepared, cur: FitResult, cfg: LoopConfig) -> float | None:
+    """The Coulomb level [N·m or N] that sets the declared spring's swing ``2Fc/K``: the current
+    fit's, refitted twice with the spring in the model (a fixed point); None without a declared
+    stiffness, for a model whose friction already acts through it, or where the swing is under
+    :data:`MIN_TRANSITION_COUNTS` quanta (the spring is then a step, as the plain Coulomb column is)."""
     k = cfg.gear_stiffness
     fc = _coulomb(cur)
-    if not (k and fc > 0) or 2.0 * fc / k < MIN_TRANSITION_COUNTS * prep.position_resolution:
+    if cur.spec.geared or not (k and fc > 0) or 2.0 * fc / k < MIN_TRANSITION_COUNTS * prep.position_resolution:
         return None
     for _ in range(2):   # the Coulomb level that sets the swing, refitted with the spring (fixed point)
         fc = _coulomb(fit_model(prep, dataclasses.replace(cur.spec.copy(), gear_stiffness=k, spring_coulomb=fc), refine=False))
         if not fc > 0:
             return None
-    spring = dataclasses.replace(cur.spec.copy(), gear_stiffness=k, spring_coulomb=fc)
-    return cv_losses(prep, spring, cfg.k_folds), 2.0 * fc / k
+    return fc
+
+
+def _gear_spring_losses(prep: Prepared, cur: FitResult, cfg: LoopConfig) -> tuple[np.ndarray, float] | None:
+    """CV prediction errors of the current model with the declared spring in it, and the spring's
+    swing ``2Fc/K``; None where :func:`_spring_coulomb` is None."""
+    fc = _spring_coulomb(prep, cur, cfg)
+    if fc is None:
+        return None
+    spring = dataclasses.replace(cur.spec.copy(), gear_stiffness=cfg.gear_stiffness, spring_coulomb=fc)
+    return cv_losses(prep, spring, cfg.k_folds), 2.0 * fc / cfg.gear_stiffness
+
+
+def fit_band_hz(prep: Prepared) -> float:
+    """The band the fit sees [Hz]: the lower of the position filter's cut-off and the decimation
+    filter's (0.8 × the decimated Nyquist frequency, :func:`plant.calibration.fit._decimate`)."""
+    return min(float(prep.cutoff_hz), 0.4 / (prep.dt_s * prep.decim))
+
+
+def spring_mode_floor_hz(stiffness: float, inertia: float) -> float | None:
+    """Lowest possible mode [Hz] of a drive of total inertia ``inertia`` [kg·m² or kg] split by a
+    spring ``stiffness`` [N·m/rad or N/m]: ``ω² = K (1/J_m + 1/J_l)`` is smallest at ``J_m = J_l
+    = J/2``, so ``f ≥ sqrt(K/J)/π``. None for a non-positive inertia."""
+    if not inertia > 0:
+        return None
+    return math.sqrt(stiffness / inertia) / math.pi
+
+
+def _quasi_static_spring(prep: Prepared, cur: FitResult, cfg: LoopConfig) -> tuple[float, float] | None:
+    """``(f_min, band)`` [Hz] if the declared spring's lowest possible mode lies above the fit's band
+    (the load then follows the spring quasi-statically in the data, as :func:`plant.calibration.fit.
+    geared_coulomb` assumes), else None. docs/calibration.md, "Session 35"."""
+    if not cfg.gear_stiffness or "inertia" not in cur.names:
+        return None
+    f_min = spring_mode_floor_hz(cfg.gear_stiffness, cur.param("inertia"))
+    band = fit_band_hz(prep)
+    return (f_min, band) if f_min is not None and f_min > band else None
 
 
 #: The gap's source in a report: refitted inside the declared spring, or the formula of :func:`backlash_gap`.
@@ -873,8 +909,22 @@ def _reversal_candidate(ctx: _Ctx, kind: str) -> list[dict[str, Any]]:
         f = _grid_then_fit(ctx, dataclasses.replace(ctx.cur.spec.copy(), presliding_k=1.0), "presliding_k", 1.0 / grid, 0.6)
         what = "a LuGre bristle transition"
     else:
-        f = _grid_then_fit(ctx, dataclasses.replace(ctx.cur.spec.copy(), backlash_width=1.0), "backlash_width", grid, 0.6)
-        what = "a dead zone"
+        qs = _quasi_static_spring(ctx.prep, ctx.cur, ctx.cfg)
+        fc = _spring_coulomb(ctx.prep, ctx.cur, ctx.cfg) if qs is not None else None
+        if fc is not None:
+            # the drive's stiffness is declared and its mode lies above the fit's band: the gap sits
+            # inside that (quasi-static) spring, so the fitted width is the gap itself, not the lost
+            # motion gap + wind-up of a rigid play (sessions 31 and 35)
+            k = ctx.cfg.gear_stiffness
+            base = dataclasses.replace(ctx.cur.spec.copy(), gear_stiffness=k, spring_coulomb=fc, backlash_width=1.0)
+            g_lo = MIN_TRANSITION_COUNTS * ctx.prep.position_resolution
+            ggrid = np.logspace(math.log10(g_lo), math.log10(max(hi, 2 * g_lo)), 14)
+            f = _grid_then_fit(ctx, base, "backlash_width", ggrid, 0.6)
+            what = (f"a gap inside the declared gear spring (K = {k:.4g}, its swing 2Fc/K = {2 * fc / k:.3g}; its mode is "
+                    f"at least {qs[0]:.3g} Hz, above the fit's band of {qs[1]:.3g} Hz, so the spring is quasi-static here)")
+        else:
+            f = _grid_then_fit(ctx, dataclasses.replace(ctx.cur.spec.copy(), backlash_width=1.0), "backlash_width", grid, 0.6)
+            what = "a dead zone"
     return [{"kind": kind, "slot": None, "fit": f, "group": "reversal",
              "evidence": f"{rv['share_pct']:.0f} % of the residual energy lies within ±0.15 s of the {rv['n_reversals']} velocity "
                          f"reversals ({rv['time_share_pct']:.0f} % of the time), consistent with {what}"}]

@@ -107,6 +107,13 @@ LOST_MOTION_TEXT = (
     "gap (docs/calibration.md, 'Session 15', 'Session 32')"
 )
 
+GEARED_GAP_TEXT = (
+    "the width is the gap itself: with the drive's stiffness declared (--gear-stiffness) and that spring's mode above "
+    "the fit's band, the backlash is fitted as a gap inside the spring, whose wind-up is modelled (docs/calibration.md, "
+    "'Session 35')"
+)
+GAP_FITTED_IN_SPRING = "fitted by the loop as a gap inside the declared gear spring (its mode above the fit's band)"
+
 
 def _fit_block(fit: FitResult, linear: bool) -> dict[str, Any]:
     vals, _ = param_names(fit, linear)
@@ -264,7 +271,10 @@ def calibrate(
 
     gap = None
     gap_how: dict[str, Any] = {}
-    if gear_stiffness is not None and result.final.spec.backlash_width is not None:
+    if gear_stiffness is not None and result.final.spec.backlash_width is not None and result.final.spec.geared:
+        # named as a gap inside the declared (quasi-static) spring: the width is the gap (session 35)
+        gap, gap_how = result.final.spec.backlash_width, {"method": GAP_FITTED_IN_SPRING}
+    elif gear_stiffness is not None and result.final.spec.backlash_width is not None:
         gap, gap_how = geared_gap(prep, result.final, gear_stiffness)
         if gap is None:   # the spring's swing is not resolved: subtract half of it from the lost motion
             fc, ts = friction_levels(result.final)
@@ -275,7 +285,7 @@ def calibrate(
     for acc, eff in zip(result.accepted, result.effects()):
         extra: dict[str, Any] = {}
         if acc.kind == "backlash":
-            extra["width_meaning"] = LOST_MOTION_TEXT
+            extra["width_meaning"] = GEARED_GAP_TEXT if result.final.spec.geared else LOST_MOTION_TEXT
             if gap is not None:
                 extra["gap_m" if linear else "gap_rad"] = gap
                 extra["gear_stiffness"] = gear_stiffness
