@@ -436,7 +436,9 @@ def _markdown(r: dict[str, Any]) -> str:
               + ", ".join(f"{p:.6g}" for p in r["drive_periods"]) + "."]
     if r.get("gear_stiffness") is not None:
         L += ["", f"Declared gear stiffness (--gear-stiffness): {r['gear_stiffness']:.6g}; a pre-sliding or backlash must also "
-              "predict better than the current model with this spring in it (docs/calibration.md, 'Session 20')."]
+              "predict better than the current model with this spring in it (docs/calibration.md, 'Session 20'); where the "
+              "spring's lowest possible mode, sqrt(K/J)/pi, lies above the fit's band, the backlash candidate is a gap "
+              "inside the spring, its width the gap ('Session 35')."]
     L += ["", "## Candidates rejected", ""]
     for x in r["rejected"]:
         L.append(f"- step {x['step']}: {x['kind']} — {x['reason']}")
