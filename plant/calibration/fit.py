@@ -138,10 +138,14 @@ def _decimate(x: np.ndarray, r: int) -> np.ndarray:
     return xf[_decimation_start(xf.shape[0], r) :: r]
 
 
+#: Cut-off of :func:`_decimate`'s filter as a fraction of the decimated Nyquist frequency (Matlab's ``decimate``).
+DECIMATION_CUTOFF = 0.8
+
+
 @functools.lru_cache(maxsize=8)
 def _decimation_filter(r: int) -> tuple[np.ndarray, np.ndarray]:
     """The order-8 Chebyshev I of :func:`_decimate` for factor ``r`` (b, a), unit DC gain."""
-    b, a = signal.cheby1(8, 0.05, 0.8 / r)
+    b, a = signal.cheby1(8, 0.05, DECIMATION_CUTOFF / r)
     return b * (a.sum() / b.sum()), a
 
 

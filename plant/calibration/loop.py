@@ -66,7 +66,7 @@ import numpy as np
 from scipy import linalg, stats
 
 from plant.calibration import residuals as res
-from plant.calibration.fit import (PHASE_HARMONICS, TRANSFERABLE_NUISANCE, FitResult, ModelSpec, Prepared, _solve, design,
+from plant.calibration.fit import (DECIMATION_CUTOFF, PHASE_HARMONICS, TRANSFERABLE_NUISANCE, FitResult, ModelSpec, Prepared, _solve, design,
                                     effective_n, fit_model, predict)
 from plant.effects import EFFECT_KINDS, Effect, build_effect
 
@@ -538,7 +538,7 @@ def _beats_gear_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: L
                     "a bristle in series with the gear cannot shorten its transition — the gear's wind-up, not pre-sliding")
     cache = {} if cache is None else cache
     if "loss" not in cache:
-        cache["loss"] = _gear_spring_losses(prep, cur, cfg)
+        cache["loss"] = _gear_spring_losses(prep, cur, cfg, cache)
     if cache["loss"] is None:
         return None
     loss, swing = cache["loss"]
@@ -591,10 +591,19 @@ def _spring_coulomb(prep: Prepared, cur: FitResult, cfg: LoopConfig) -> float | 
     return fc
 
 
-def _gear_spring_losses(prep: Prepared, cur: FitResult, cfg: LoopConfig) -> tuple[np.ndarray, float] | None:
+def _step_spring_coulomb(prep: Prepared, cur: FitResult, cfg: LoopConfig, cache: dict[str, Any]) -> float | None:
+    """:func:`_spring_coulomb`, once per loop step (``cache``: the step's dict, shared by the backlash
+    candidate and :func:`_beats_gear_spring`)."""
+    if "fc" not in cache:
+        cache["fc"] = _spring_coulomb(prep, cur, cfg)
+    return cache["fc"]
+
+
+def _gear_spring_losses(prep: Prepared, cur: FitResult, cfg: LoopConfig,
+                        cache: dict[str, Any]) -> tuple[np.ndarray, float] | None:
     """CV prediction errors of the current model with the declared spring in it, and the spring's
     swing ``2Fc/K``; None where :func:`_spring_coulomb` is None."""
-    fc = _spring_coulomb(prep, cur, cfg)
+    fc = _step_spring_coulomb(prep, cur, cfg, cache)
     if fc is None:
         return None
     spring = dataclasses.replace(cur.spec.copy(), gear_stiffness=cfg.gear_stiffness, spring_coulomb=fc)
@@ -603,8 +612,8 @@ def _gear_spring_losses(prep: Prepared, cur: FitResult, cfg: LoopConfig) -> tupl
 
 def fit_band_hz(prep: Prepared) -> float:
     """The band the fit sees [Hz]: the lower of the position filter's cut-off and the decimation
-    filter's (0.8 × the decimated Nyquist frequency, :func:`plant.calibration.fit._decimate`)."""
-    return min(float(prep.cutoff_hz), 0.4 / (prep.dt_s * prep.decim))
+    filter's (:data:`plant.calibration.fit.DECIMATION_CUTOFF` × the decimated Nyquist frequency)."""
+    return min(float(prep.cutoff_hz), DECIMATION_CUTOFF * 0.5 / (prep.dt_s * prep.decim))
 
 
 def spring_mode_floor_hz(stiffness: float, inertia: float) -> float | None:
@@ -851,6 +860,8 @@ class _Ctx:
     vmax: float
     #: the axis moves both ways (:func:`both_directions`, computed once per run)
     two_way: bool = True
+    #: the declared spring's Coulomb level and model, once per step (:func:`_beats_gear_spring`)
+    spring_cache: dict[str, Any] = dataclasses.field(default_factory=dict)
 
     @property
     def unit_pos(self) -> str:
@@ -910,7 +921,7 @@ def _reversal_candidate(ctx: _Ctx, kind: str) -> list[dict[str, Any]]:
         what = "a LuGre bristle transition"
     else:
         qs = _quasi_static_spring(ctx.prep, ctx.cur, ctx.cfg)
-        fc = _spring_coulomb(ctx.prep, ctx.cur, ctx.cfg) if qs is not None else None
+        fc = _step_spring_coulomb(ctx.prep, ctx.cur, ctx.cfg, ctx.spring_cache) if qs is not None else None
         if fc is not None:
             # the drive's stiffness is declared and its mode lies above the fit's band: the gap sits
             # inside that (quasi-static) spring, so the fitted width is the gap itself, not the lost
@@ -1425,7 +1436,7 @@ def run_loop(
         if not cands:
             break
         loss_cur = cv_losses(prep, cur.spec, cfg.k_folds)
-        spring_cache: dict[str, Any] = {}   # the declared spring's model, once per step (_beats_gear_spring)
+        spring_cache = ctx.spring_cache   # the declared spring's model, once per step (_beats_gear_spring)
         stribeck_cache: dict[str, Any] = {}   # the current model with the Stribeck term, once per step (_beats_stribeck)
         for c in cands:
             _evaluate(prep, c, loss_cur, cfg)

@@ -271,11 +271,12 @@ def calibrate(
 
     gap = None
     gap_how: dict[str, Any] = {}
-    if gear_stiffness is not None and result.final.spec.backlash_width is not None and result.final.spec.geared:
-        # named as a gap inside the declared (quasi-static) spring: the width is the gap (session 35)
-        gap, gap_how = result.final.spec.backlash_width, {"method": GAP_FITTED_IN_SPRING}
-    elif gear_stiffness is not None and result.final.spec.backlash_width is not None:
-        gap, gap_how = geared_gap(prep, result.final, gear_stiffness)
+    if gear_stiffness is not None and result.final.spec.backlash_width is not None:
+        if result.final.spec.geared:
+            # named as a gap inside the declared (quasi-static) spring: the width is the gap (session 35)
+            gap, gap_how = result.final.spec.backlash_width, {"method": GAP_FITTED_IN_SPRING}
+        else:
+            gap, gap_how = geared_gap(prep, result.final, gear_stiffness)
         if gap is None:   # the spring's swing is not resolved: subtract half of it from the lost motion
             fc, ts = friction_levels(result.final)
             gap = backlash_gap(result.final.spec.backlash_width, fc, ts, gear_stiffness)
