@@ -2,9 +2,9 @@
 and keep both gaps (massless, two-mass). Run from the change's tree.
 Usage: python run_decision.py OUT.json GEN:LO-HI ..."""
 import sys, os, json, importlib, tempfile, pathlib, time
-from concurrent.futures import ProcessPoolExecutor
 sys.path.insert(0, os.getcwd())
-GEN = {"independent": "plant.calibration.bench_records", "blind": "plant.calibration.blind_records"}
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent / "tools"))
+from jobs import GEN, map_jobs, seed_jobs  # noqa: E402
 
 
 def one(job):
@@ -29,11 +29,6 @@ def one(job):
 
 
 if __name__ == "__main__":
-    jobs = []
-    for spec in sys.argv[2:]:
-        gen, rng = spec.split(":"); lo, hi = map(int, rng.split("-"))
-        jobs += [(gen, s) for s in range(lo, hi + 1)]
-    with ProcessPoolExecutor(2) as ex:
-        out = [o for o in ex.map(one, jobs, chunksize=4) if o is not None]
+    out = map_jobs(one, seed_jobs(sys.argv[2:]))
     json.dump(out, open(sys.argv[1], "w"), indent=1)
     print(len(out), "records")
