@@ -72,16 +72,17 @@ def test_a_gap_inside_a_quasi_static_spring_is_named_with_the_gap_as_its_width(t
     named = {e["kind"] for e in rep["effects"]}
     assert named == {"backlash", "time_periodic"}, rep["log"]
     bl = next(e for e in rep["effects"] if e["kind"] == "backlash")
-    assert bl["gap_rad"] == bl["params"]["width_rad"]
+    gap = bl["two_mass"]["massless_gap"]   # the massless description's (session 37 refits it, below)
+    assert gap == bl["params"]["width_rad"]
     assert "gap itself" in bl["width_meaning"] and "above the fit's band" in bl["evidence"]
     # what the model guarantees, not a tolerance: the gap is resolved (≥ 10 quanta) and smaller than the
     # motion a play loses at a reversal on the same record (gap + wind-up, the width without the
-    # stiffness). Its error against the generator (−54 % here, docs/calibration.md "Limitations") is
-    # the benchmark's figure, not asserted.
-    assert bl["gap_rad"] >= 10 * r.meta["resolution_rad"]
+    # stiffness). Its error against the generator (−54 % here) is why the two-mass refit exists; the
+    # refit's is asserted in tests/test_calibration_two_mass.py.
+    assert gap >= 10 * r.meta["resolution_rad"]
     rep0 = calibrate(str(tmp_path / "seed_33.csv"), str(tmp_path / "out_33_play"), plots=False)
     (play,) = [e for e in rep0["effects"] if e["kind"] == "backlash"]   # without the stiffness: the play
-    assert bl["gap_rad"] < play["params"]["width_rad"]
+    assert gap < play["params"]["width_rad"]
 
 
 def test_a_soft_compliant_drive_stays_without_a_library_kind(tmp_path):

@@ -215,7 +215,14 @@ def cv_losses(prep: Prepared, spec: ModelSpec, k_folds: int = 8) -> CVErrors:
     fold's training rows (:func:`hidden_extrapolation`; session 33).
     """
     names, X = design(prep, spec)
-    y = prep.y_dec
+    return cv_losses_xy(names, X, prep.y_dec, k_folds)
+
+
+def cv_losses_xy(names: list[str], X: np.ndarray, y: np.ndarray, k_folds: int = 8) -> CVErrors:
+    """:func:`cv_losses` on given decimated columns ``X`` (shape (M, p), named ``names``, the
+    :data:`plant.calibration.fit.NONNEGATIVE` ones bounded) and target ``y`` (shape (M,)): for
+    descriptions that are not a :class:`plant.calibration.fit.ModelSpec`
+    (:mod:`plant.calibration.two_mass`)."""
     n = y.size
     edges = np.linspace(0, n, k_folds + 1).astype(int)
     pred = np.empty(n)

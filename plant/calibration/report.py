@@ -27,6 +27,7 @@ import numpy as np
 from plant.calibration import residuals as res
 from plant.calibration.fit import FitResult, prepare
 from plant.calibration.io import Record, load_record
+from plant.calibration.two_mass import GAP_TWO_MASS, two_mass_gap
 from plant.calibration.loop import (GAP_FORMULA, LoopConfig, LoopResult, backlash_gap, check_stiffness, friction_levels,
                                      geared_gap, run_loop)
 
@@ -108,9 +109,10 @@ LOST_MOTION_TEXT = (
 )
 
 GEARED_GAP_TEXT = (
-    "the width is the gap itself: with the drive's stiffness declared (--gear-stiffness) and that spring's mode above "
-    "the fit's band, the backlash is fitted as a gap inside the spring, whose wind-up is modelled (docs/calibration.md, "
-    "'Session 35')"
+    "the width is the gap itself as the massless description fits it: with the drive's stiffness declared "
+    "(--gear-stiffness) and that spring's mode above the fit's band, the backlash is fitted as a gap inside the spring, "
+    "whose wind-up is modelled (docs/calibration.md, 'Session 35'); where a two-mass refit with the load's inertia "
+    "predicts held-out blocks better, the gap below is that refit's ('Session 37')"
 )
 GAP_FITTED_IN_SPRING = "fitted by the loop as a gap inside the declared gear spring (its mode above the fit's band)"
 
@@ -280,6 +282,15 @@ def calibrate(
         if gap is None:   # the spring's swing is not resolved: subtract half of it from the lost motion
             fc, ts = friction_levels(result.final)
             gap = backlash_gap(result.final.spec.backlash_width, fc, ts, gear_stiffness)
+        # the load's inertia: refit the gap with a two-mass drive; used where it predicts held-out
+        # blocks better than the loop's massless model (session 36)
+        gap0 = gap if gap > 0 else result.final.spec.backlash_width
+        tm_gap, tm_info = two_mass_gap(prep, result.final, gear_stiffness, gap0, cfg.k_folds)
+        tm_info["massless_gap"] = gap
+        tm_info["massless_method"] = gap_how.get("method", GAP_FORMULA)
+        gap_how = {"method": GAP_TWO_MASS if tm_gap is not None else tm_info["massless_method"], "two_mass": tm_info}
+        if tm_gap is not None:
+            gap = tm_gap
     model_path = write_model_file(result, out / "calibrated_parameters.yaml", rec.name, axis=axis,
                                   backlash_gap=gap)
     effects = []
@@ -291,6 +302,8 @@ def calibrate(
                 extra["gap_m" if linear else "gap_rad"] = gap
                 extra["gear_stiffness"] = gear_stiffness
                 extra["gap_method"] = gap_how.get("method", GAP_FORMULA)
+                if "two_mass" in gap_how:
+                    extra["two_mass"] = gap_how["two_mass"]
         effects.append(
             {
                 "kind": acc.kind,
@@ -398,6 +411,16 @@ def _markdown(r: dict[str, Any]) -> str:
             L += [f"   Note: {e['width_meaning']}."
                   + (f" With the gear stiffness {_fmt(e['gear_stiffness'])}: **{gk} = {_fmt(e[gk])}** ("
                      f"{e.get('gap_method', GAP_FORMULA)}; written to the plant file)." if gk in e else "")]
+            tm = e.get("two_mass")
+            if tm is not None and "rss" in tm:
+                L += [f"   Two-mass refit (load share {tm['load_share']:.2f} and gear damping ratio {tm['damping_ratio']:.2f}, "
+                      f"both fixed; the load's Coulomb and viscous levels ×{tm.get('coulomb_scale', 1.0):.3g} and "
+                      f"×{tm.get('viscous_scale', 1.0):.3g} the massless fit's, refitted with the gap): gap {_fmt(tm['gap'])}, "
+                      f"held-out gain over the massless model "
+                      f"{tm['cv_gain_pct']:.2f} % (z = {tm['cv_z']:.1f}); massless gap {_fmt(tm['massless_gap'])} "
+                      f"({tm['massless_method']}). " + ("Used." if "why" not in tm else f"Not used: {tm['why']}.")]
+            elif tm is not None:
+                L += [f"   Two-mass refit not possible: {tm.get('why', '')}."]
     L += ["", "## Final model", "", "| parameter | value | ±1σ (eff.) |", "|---|---|---|"]
     for k, v in r["final"]["params"].items():
         L.append(f"| {k} | {_fmt(v)} | {_fmt(r['uncertainty']['final_std'].get(k, ''))} |")
