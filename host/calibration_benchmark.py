@@ -84,9 +84,10 @@ KEY_PARAMS: dict[str, dict[str, float | None]] = {
     "position_periodic": {"period_rad": 0.03, "amplitude_nm": 0.30},
     "time_periodic": {"frequency_hz": 0.03, "amplitude_nm": 0.30},
     "gravity_imbalance": {"amplitude_nm": 0.30},
-    # width_rad: the fitted width against the generator's gap (the metric); gap_rad: the gap
-    # computed from the width with the drive's stiffness given (as an engineer has it from the drive's
-    # design; here the generator's), plant.calibration.loop.backlash_gap
+    # width_rad: the loop's fitted width (the massless description's) against the generator's gap;
+    # gap_rad: the gap the report gives with the drive's stiffness given (as an engineer has it from
+    # the drive's design; here the generator's) — the width the plant file gets (session 37: the
+    # two-mass refit where it predicts better, else the massless gap). Both scored against 30 %.
     "backlash": {"width_rad": 0.30, "gap_rad": 0.30},
     "asymmetric_friction": {"viscous_pos_nm_s_rad": 0.30, "viscous_neg_nm_s_rad": 0.30},
     "presliding": {"sigma0_nm_rad": None},
