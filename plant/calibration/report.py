@@ -282,10 +282,13 @@ def calibrate(
         if gap is None:   # the spring's swing is not resolved: subtract half of it from the lost motion
             fc, ts = friction_levels(result.final)
             gap = backlash_gap(result.final.spec.backlash_width, fc, ts, gear_stiffness)
-        # the load's inertia: refit the gap with a two-mass drive; used where it predicts held-out
-        # blocks better than the loop's massless model (session 36)
+        # the load's inertia and friction levels: refit the gap with a two-mass drive; used where it
+        # predicts held-out blocks better than the loop's massless model (sessions 36-37)
         gap0 = gap if gap > 0 else result.final.spec.backlash_width
-        tm_gap, tm_info = two_mass_gap(prep, result.final, gear_stiffness, gap0, cfg.k_folds)
+        if gap0 is not None and gap0 > 0:
+            tm_gap, tm_info = two_mass_gap(prep, result.final, gear_stiffness, gap0, cfg.k_folds)
+        else:   # nothing to search around: keep the massless gap (never reached on the benchmark)
+            tm_gap, tm_info = None, {"why": "neither the massless gap nor the fitted width is positive"}
         tm_info["massless_gap"] = gap
         tm_info["massless_method"] = gap_how.get("method", GAP_FORMULA)
         gap_how = {"method": GAP_TWO_MASS if tm_gap is not None else tm_info["massless_method"], "two_mass": tm_info}
