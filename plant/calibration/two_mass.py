@@ -297,7 +297,7 @@ def _joint_refit(tm: "TwoMass", share: float, zeta: float, gap: float, g_lo: flo
 
 def two_mass_gap(prep: Prepared, fit: FitResult, stiffness: float, gap0: float,
                  k_folds: int = 8) -> tuple[float | None, dict[str, Any]]:
-    """The gap of a geared drive refitted with the load's inertia (module docstring).
+    """The gap of a geared drive refitted with the load's inertia and friction levels (module docstring).
 
     Parameters
     ----------
@@ -316,8 +316,10 @@ def two_mass_gap(prep: Prepared, fit: FitResult, stiffness: float, gap0: float,
     (float or None, dict)
         The two-mass gap [rad or m], or None where it does not predict held-out blocks better than
         ``fit`` (or cannot be computed); the dict has the evidence: ``load_share``,
-        ``damping_ratio``, ``gap``, ``rss``, ``rss_massless``, ``cv_gain_pct``, ``cv_z``,
-        ``motor_inertia`` and, when refused, ``why``.
+        ``damping_ratio``, ``gap``, ``coulomb_scale`` and ``viscous_scale`` (the refitted load
+        friction over the fit's), ``load_coulomb_massless`` [N·m or N] and ``load_viscous_massless``
+        [N·m·s/rad or N·s/m] (the fit's), ``rss``, ``rss_massless``, ``cv_gain_pct``, ``cv_z``,
+        ``motor_inertia`` [kg·m² or kg] and, when refused, ``why``.
 
     Raises
     ------
