@@ -1,7 +1,7 @@
 """Session 37 probe: change2's two-mass gap with the TRUE load share (and optionally true zeta)."""
 import sys, os, json, importlib, tempfile, pathlib, time
 sys.path.insert(0, os.getcwd())
-sys.path.insert(0, "/work/main/data/calibration_benchmark/tools")
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "tools"))
 from jobs import GEN, map_jobs
 
 
