@@ -270,11 +270,14 @@ def _joint_refit(tm: "TwoMass", share: float, zeta: float, gap: float, g_lo: flo
     f0 = tm.friction
     span = math.log(FRICTION_SCALE_SPAN)
 
-    def rss(x):
+    def scaled(x) -> LoadFriction:
         sc, sv = math.exp(x[1]), math.exp(x[2])
-        tm.friction = dataclasses.replace(f0, coulomb_pos=f0.coulomb_pos * sc, coulomb_neg=f0.coulomb_neg * sc,
-                                          stribeck_excess=f0.stribeck_excess * sc,
-                                          viscous_pos=f0.viscous_pos * sv, viscous_neg=f0.viscous_neg * sv)
+        return dataclasses.replace(f0, coulomb_pos=f0.coulomb_pos * sc, coulomb_neg=f0.coulomb_neg * sc,
+                                   stribeck_excess=f0.stribeck_excess * sc,
+                                   viscous_pos=f0.viscous_pos * sv, viscous_neg=f0.viscous_neg * sv)
+
+    def rss(x):
+        tm.friction = scaled(x)
         try:
             r = tm.residual(share, zeta, float(math.exp(x[0])))
         finally:
@@ -282,16 +285,15 @@ def _joint_refit(tm: "TwoMass", share: float, zeta: float, gap: float, g_lo: flo
         return math.inf if r is None else float(r @ r)
 
     x0 = np.array([math.log(gap), 0.0, 0.0])
+    rss0 = rss(x0)
     sol = optimize.minimize(rss, x0, method="Nelder-Mead",
                             bounds=[(math.log(g_lo), math.log(g_hi)), (-span, span), (-span, span)],
-                            options={"xatol": 1e-3, "fatol": 1e-6 * max(rss(x0), 1e-300), "maxfev": JOINT_MAX_SIMULATIONS,
+                            options={"xatol": 1e-3, "fatol": 1e-6 * max(rss0, 1e-300), "maxfev": JOINT_MAX_SIMULATIONS,
                                      "initial_simplex": x0 + np.vstack([np.zeros(3), 0.2 * np.eye(3)])})
-    if not sol.fun < rss(x0):
+    if not sol.fun < rss0:
         return gap, (1.0, 1.0)
+    tm.friction = scaled(sol.x)
     sc, sv = math.exp(sol.x[1]), math.exp(sol.x[2])
-    tm.friction = dataclasses.replace(f0, coulomb_pos=f0.coulomb_pos * sc, coulomb_neg=f0.coulomb_neg * sc,
-                                      stribeck_excess=f0.stribeck_excess * sc,
-                                      viscous_pos=f0.viscous_pos * sv, viscous_neg=f0.viscous_neg * sv)
     return float(math.exp(sol.x[0])), (sc, sv)
 
 
