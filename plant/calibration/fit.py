@@ -781,56 +781,29 @@ def fit_model(
     refine: bool = True,
     rel_bounds: float | dict[int, float] = 0.3,
     free: list[int] | None = None,
-    fixed: dict[str, float] | None = None,
 ) -> FitResult:
     """Fit ``spec`` to a prepared record (hyper-parameters refined first if ``refine``; see
-    :func:`refine_hyper` for ``rel_bounds`` and ``free``).
-
-    ``fixed`` holds named linear parameters at given values (e.g. ``{"inertia": 5.0}`` [kg·m²]): their
-    columns times the values are taken from the target and the rest is solved; their ``std`` is 0
-    and they do not count in ``n_params``. Raises ``KeyError`` naming a parameter not in the design.
-    """
+    :func:`refine_hyper` for ``rel_bounds`` and ``free``)."""
     if refine and spec.n_hyper():
         spec = refine_hyper(prep, spec, rel_bounds=rel_bounds, free=free)
     names, X = design(prep, spec)
     y = prep.y_dec
+    coef, r = _solve(X, y, names)
     n, p = X.shape
-    held, y_fit, free_cols = fixed_columns(names, X, y, fixed)
-    Xf = X[:, free_cols]
-    coef_f, r = _solve(Xf, y_fit, [names[j] for j in free_cols])
-    coef = np.zeros(p)
-    coef[free_cols] = coef_f
-    for j, v in held.items():
-        coef[j] = v
     rss = float(r @ r)
-    pf = len(free_cols)
-    dof = max(n - pf, 1)
+    dof = max(n - p, 1)
     sigma = math.sqrt(rss / dof)
-    std = np.zeros(p)
     try:
-        cov = np.linalg.inv(Xf.T @ Xf)
-        std[free_cols] = sigma * np.sqrt(np.clip(np.diag(cov), 0, None))
+        cov = np.linalg.inv(X.T @ X)
+        std = sigma * np.sqrt(np.clip(np.diag(cov), 0, None))
     except np.linalg.LinAlgError:
-        std[free_cols] = np.nan
+        std = np.full(p, np.nan)
     n_eff = effective_n(r)
     return FitResult(
         spec=spec, names=names, coef=coef, std=std, std_eff=std * math.sqrt(n / n_eff), residual=r,
         yhat=y - r, rss=rss, rms=math.sqrt(rss / n), relative_error_pct=100.0 * math.sqrt(rss) / float(np.linalg.norm(y)),
-        n=n, n_eff=n_eff, n_params=pf + spec.n_hyper(),
+        n=n, n_eff=n_eff, n_params=p + spec.n_hyper(),
     )
-
-
-def fixed_columns(names: list[str], X: np.ndarray, y: np.ndarray,
-                  fixed: dict[str, float] | None) -> tuple[dict[int, float], np.ndarray, list[int]]:
-    """Held linear parameters: ``({column index: value}, y − Σ value·column, indices of the free
-    columns)``. Raises ``KeyError`` naming a held parameter that is not among ``names``."""
-    held: dict[int, float] = {}
-    for name, v in (fixed or {}).items():
-        if name not in names:
-            raise KeyError(f"held parameter {name!r} is not in the design ({', '.join(names)})")
-        held[names.index(name)] = float(v)
-    y_fit = y - sum((v * X[:, j] for j, v in held.items()), np.zeros_like(y)) if held else y
-    return held, y_fit, [j for j in range(len(names)) if j not in held]
 
 
 #: Out-of-library descriptions (and their columns) that describe the *machine* (its drive and

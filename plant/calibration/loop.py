@@ -66,7 +66,7 @@ import numpy as np
 from scipy import linalg, stats
 
 from plant.calibration import residuals as res
-from plant.calibration.fit import (DECIMATION_CUTOFF, fixed_columns, PHASE_HARMONICS, TRANSFERABLE_NUISANCE, FitResult, ModelSpec, Prepared, _solve, design,
+from plant.calibration.fit import (DECIMATION_CUTOFF, PHASE_HARMONICS, TRANSFERABLE_NUISANCE, FitResult, ModelSpec, Prepared, _solve, design,
                                     effective_n, fit_model, predict)
 from plant.effects import EFFECT_KINDS, Effect, build_effect
 
@@ -206,20 +206,16 @@ def hidden_extrapolation(X_tr: np.ndarray, X_te: np.ndarray) -> np.ndarray:
     return out
 
 
-def cv_losses(prep: Prepared, spec: ModelSpec, k_folds: int = 8, fixed: dict[str, float] | None = None) -> CVErrors:
+def cv_losses(prep: Prepared, spec: ModelSpec, k_folds: int = 8) -> CVErrors:
     """Prediction errors of blocked cross-validation (decimated samples, time order; square them for the loss).
 
     Each of ``k_folds`` contiguous blocks is predicted by the linear parameters fitted (with their
-    bounds) on the other blocks; hyper-parameters are those of ``spec``; the parameters in ``fixed``
-    are held at their values in every fold (:func:`plant.calibration.fit.fit_model`). The result carries
+    bounds) on the other blocks; hyper-parameters are those of ``spec``. The result carries
     ``extrapolated`` (:class:`CVErrors`): the held-out rows that are hidden extrapolations from their
     fold's training rows (:func:`hidden_extrapolation`; session 33).
     """
     names, X = design(prep, spec)
-    if not fixed:
-        return cv_losses_xy(names, X, prep.y_dec, k_folds)
-    _, y_fit, free_cols = fixed_columns(names, X, prep.y_dec, fixed)
-    return cv_losses_xy([names[j] for j in free_cols], X[:, free_cols], y_fit, k_folds)
+    return cv_losses_xy(names, X, prep.y_dec, k_folds)
 
 
 def cv_losses_xy(names: list[str], X: np.ndarray, y: np.ndarray, k_folds: int = 8) -> CVErrors:
@@ -730,33 +726,6 @@ def _replaces_inertia(cur: FitResult, new: FitResult) -> str | None:
         return (f"takes the inertia's place: with it the inertia falls from {j0:.4g} to its bound 0, so the term stands "
                 "in for the (noisy) measured acceleration rather than describing a torque of its own")
     return None
-
-
-def _hold_inertia(prep: Prepared, cur: FitResult, c: dict[str, Any], loss_cur: np.ndarray, cfg: LoopConfig) -> None:
-    """Where a candidate's free fit drives a positive inertia to its bound 0 (:func:`_replaces_inertia`),
-    fit and test it again with the inertia **held** at the current model's value (session 38).
-
-    The rule of session 14 refused such a candidate outright: a smooth column standing in for the
-    noisy measured acceleration (clean seed 42: gravity with a 26 % gain, the inertia 13.7 → 0). It
-    also refused real torques whose columns happen to share some of the acceleration's direction:
-    blind 10016, a 2.65 N·m position line on a staircase (72 % of the residual variance, the inertia
-    5.0 → 0), reported as unexplained. Held at the current model's inertia, a stand-in has nothing
-    left to explain (it cannot take the acceleration's noise out of the model), while a torque of its
-    own keeps its gain. The held fit replaces the candidate's (``fit``, ``loss``, ``cv_gain_pct``,
-    ``cv_z``) and is tested by every later rule as any candidate; ``held_inertia`` records the value
-    and the free fit's gain, for the log and the report. Nothing changes where the rule would not
-    have fired.
-    """
-    if _replaces_inertia(cur, c["fit"]) is None:
-        return
-    j0 = cur.param("inertia")
-    free_gain, free_z = c["cv_gain_pct"], c["cv_z"]
-    c["fit"] = fit_model(prep, c["fit"].spec, refine=False, fixed={"inertia": j0})
-    c["loss"] = cv_losses(prep, c["fit"].spec, cfg.k_folds, fixed={"inertia": j0})
-    c["cv_gain_pct"], c["cv_z"] = cv_compare(loss_cur, c["loss"])
-    c["held_inertia"] = {"inertia": j0, "free_cv_gain_pct": free_gain, "free_cv_z": free_z}
-    c["evidence"] = (c.get("evidence", "") + f"; fitted with the inertia held at {j0:.4g} (free, the fit drove it to 0 "
-                     f"and gained {free_gain:.2f} %, z = {free_z:.1f}: session 38)").lstrip("; ")
 
 
 def friction_levels(fit: FitResult) -> tuple[float, float]:
@@ -1478,7 +1447,6 @@ def run_loop(
         stribeck_cache: dict[str, Any] = {}   # the current model with the Stribeck term, once per step (_beats_stribeck)
         for c in cands:
             _evaluate(prep, c, loss_cur, cfg)
-            _hold_inertia(prep, cur, c, loss_cur, cfg)
             c["explained_pct"] = 100.0 * (cur.rss - c["fit"].rss) / cur.rss
             c["delta_bic"] = delta_bic(cur.rss, c["fit"].rss, c["fit"].n_params - cur.n_params, cur.n_eff)
         cands.sort(key=lambda c: -c["cv_gain_pct"])
@@ -1542,10 +1510,6 @@ def run_loop(
                 if not c["val_rms"] < val_cur:
                     why = f"held-out record: rms {val_cur:.4g} → {c['val_rms']:.4g} (does not fall)"
             if why is not None:
-                if "held_inertia" in c:
-                    h = c["held_inertia"]
-                    why += (f" [tested with the inertia held at {h['inertia']:.4g}: free, the fit drove it to 0 (gain "
-                            f"{h['free_cv_gain_pct']:.2f} %, z = {h['free_cv_z']:.1f}), a stand-in for the measured acceleration]")
                 rejected.append({"kind": c["kind"], "step": step, "cv_gain_pct": c["cv_gain_pct"], "cv_z": c["cv_z"],
                                  "explained_pct": c["explained_pct"], "reason": why})
                 continue
