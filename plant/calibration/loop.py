@@ -507,7 +507,7 @@ def _line_resolved(fit: FitResult, kind: str, slot: int, resolution: float, spee
 
 
 def _beats_gear_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: LoopConfig,
-                       cache: dict[str, Any] | None = None) -> str | None:
+                       cache: dict[str, Any] | None = None, zc: float | None = None) -> str | None:
     """None if the reversal candidate ``c`` predicts held-out blocks better than the current model
     with the declared gear spring in it, else why not.
 
@@ -531,6 +531,12 @@ def _beats_gear_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: L
 
     ``cache``: one dict per loop step (same ``cur``), so the spring model is fitted and
     cross-validated once for all of the step's candidates.
+
+    Where a backlash candidate loses to the spring and ``zc`` is given, the question is asked again
+    with the load's inertia (session 38, :func:`plant.calibration.two_mass.gap_against_compliance`):
+    a gap in the declared gear against the same two-mass drive without one. If the gap predicts
+    held-out blocks better at the run's level ``zc`` (a significance test: the alternative is a
+    compliant mode, which a gap imitated in sessions 24 and 31), the candidate is not refused.
     """
     k = cfg.gear_stiffness
     need = MIN_TRANSITION_COUNTS * prep.position_resolution
@@ -553,9 +559,24 @@ def _beats_gear_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: L
     c["gain_over_spring_pct"], c["z_over_spring"] = g, z
     if g > 0:
         return None
-    return (f"the declared gear spring (K = {k:.4g}, swing 2Fc/K = {swing:.3g}) in the current model predicts held-out "
-            f"blocks as well: the candidate's gain over it is {g:.2f} % (z = {z:.1f}) — the reversal transition is the "
-            "gear's wind-up")
+    why = (f"the declared gear spring (K = {k:.4g}, swing 2Fc/K = {swing:.3g}) in the current model predicts held-out "
+           f"blocks as well: the candidate's gain over it is {g:.2f} % (z = {z:.1f}) — the reversal transition is the "
+           "gear's wind-up")
+    if c["kind"] != "backlash" or zc is None:
+        return why
+    # session 38: the massless play lost to the massless spring; ask the question with the load's inertia —
+    # does a gap in the gear predict better than the same two-mass drive without one (a compliant mode)?
+    from plant.calibration.two_mass import gap_against_compliance   # two_mass imports this module
+    width = c["fit"].spec.backlash_width or 0.0
+    g2, z2, info = gap_against_compliance(prep, cur, k, width, cfg.k_folds)
+    c["two_mass_test"] = dict(info, cv_gain_pct=g2, cv_z=z2)
+    if predicts(g2, z2, zc):
+        c["evidence"] = (c.get("evidence", "") + f"; the massless spring predicted as well as the massless play (gain "
+                         f"{g:.2f} %), but with the load's inertia a gap of {info['gap']:.3g} in the declared gear predicts "
+                         f"held-out blocks better than the same drive without one (gain {g2:.2f} %, z = {z2:.1f}; session 38)")
+        return None
+    return why + (f"; with the load's inertia a gap does not predict better than a compliant mode either (gain {g2:.2f} %, "
+                  f"z = {z2:.1f}{', ' + info['why'] if 'why' in info else ''})")
 
 
 def _viscous_split_predicts(prep: Prepared, c: dict[str, Any], zc: float, cfg: LoopConfig) -> str | None:
@@ -1474,7 +1495,7 @@ def run_loop(
             if why is None and c["kind"] == "asymmetric_friction":
                 why = _viscous_split_predicts(prep, c, zc, cfg)
             if why is None and c["group"] == "reversal" and cfg.gear_stiffness is not None:
-                why = _beats_gear_spring(prep, cur, c, cfg, spring_cache)
+                why = _beats_gear_spring(prep, cur, c, cfg, spring_cache, zc)
             if why is None and c["group"] == "reversal":
                 why = _beats_stribeck(prep, cur, c, zc, cfg, stribeck_cache)
             if why is None and c["kind"] == "time_periodic" and c["motion_share"] >= 0.02:

@@ -40,6 +40,10 @@ than the loop's final model (blocked cross-validation, the folds and comparison 
 :func:`plant.calibration.loop.cv_losses` / :func:`plant.calibration.loop.cv_compare`; a positive
 gain, as :func:`plant.calibration.loop._beats_gear_spring`: the effect is already named, only its
 size is estimated). The named effects never change.
+
+The same description also decides, inside the loop, between a gap and a compliant mode where the
+massless backlash candidate loses to the massless declared spring (:func:`gap_against_compliance`,
+session 38): there a named effect can change.
 """
 
 from __future__ import annotations
@@ -376,3 +380,78 @@ def two_mass_gap(prep: Prepared, fit: FitResult, stiffness: float, gap0: float,
                        f"(gain {g:.2f} %, z = {z:.1f})")
         return None, info
     return gap, info
+
+
+def gap_against_compliance(prep: Prepared, fit: FitResult, stiffness: float, width: float,
+                           k_folds: int = 8) -> tuple[float, float, dict[str, Any]]:
+    """Does a gap in the gear predict held-out blocks better than the same two-mass drive without one?
+
+    Session 38: the loop's backlash candidate is massless (a play on the logged position, or a gap
+    inside a massless declared spring) and must beat the current model with the declared spring in it
+    (:func:`plant.calibration.loop._beats_gear_spring`). On the blind generator's drives the massless
+    spring often beats the massless play while the drive has a gap; and a gap in a massless spring
+    was not kept as the candidate because it imitated a compliant mode's ringing (sessions 24 and 31:
+    "a compliant-mode description with the load's inertia for the gap to compete against" was
+    missing). This compares the two with the load's inertia: :class:`TwoMass` built on ``fit`` (the
+    current model, without backlash), load share :data:`NOMINAL_SHARE` and ζ :data:`NOMINAL_ZETA`, the
+    fit's friction in both; the gap searched on a log grid from :data:`MIN_TRANSITION_COUNTS` quanta
+    to :data:`GAP_SPAN` × ``width`` (:data:`GAP_GRID_POINTS` points per factor 16), then refined
+    between the grid's neighbours; without a gap the gear is a linear spring and damper (a compliant
+    mode). Blocked cross-validation as the loop's.
+
+    Parameters
+    ----------
+    prep : Prepared
+    fit : FitResult
+        The current model (no backlash in it), with a positive inertia.
+    stiffness : float
+        Declared gear stiffness [N·m/rad or N/m].
+    width : float
+        The massless candidate's width [rad or m]: the top of the search is :data:`GAP_SPAN` times it.
+    k_folds : int
+
+    Returns
+    -------
+    (float, float, dict)
+        Cross-validated gain [%] of the gap over the compliant mode and its ``z``; the evidence
+        (``gap``, ``rss_gap``, ``rss_compliant``, ``load_share``, ``damping_ratio``) or ``why``
+        (gain and z then 0).
+    """
+    check_stiffness(stiffness)
+    try:
+        tm = TwoMass(prep, fit, stiffness)
+    except ValueError as exc:
+        return 0.0, 0.0, {"why": str(exc)}
+    share, zeta = NOMINAL_SHARE, NOMINAL_ZETA
+    g_lo = MIN_TRANSITION_COUNTS * prep.position_resolution
+    g_hi = GAP_SPAN * width
+    if not (math.isfinite(g_hi) and g_hi > g_lo > 0):
+        return 0.0, 0.0, {"why": f"no gap above {MIN_TRANSITION_COUNTS:g} position quanta to search"}
+    y0 = tm.target(share, zeta, 0.0)
+    if y0 is None:
+        return 0.0, 0.0, {"why": f"the drive needs more than {MAX_SUBSTEPS} sub-steps per sample"}
+    n = max(3, int(math.ceil(GAP_GRID_POINTS * math.log(g_hi / g_lo) / math.log(GAP_SPAN ** 2))))
+    grid = np.geomspace(g_lo, g_hi, n)
+    best = None
+    for g in grid:
+        r = tm.residual(share, zeta, float(g))
+        if r is not None and (best is None or float(r @ r) < best[0]):
+            best = (float(r @ r), float(g))
+    if best is None:
+        return 0.0, 0.0, {"why": f"the drive needs more than {MAX_SUBSTEPS} sub-steps per sample"}
+
+    def rss(x: float) -> float:
+        r = tm.residual(share, zeta, float(math.exp(x)))
+        return math.inf if r is None else float(r @ r)
+
+    step = math.log(g_hi / g_lo) / (n - 1)
+    x_b = math.log(best[1])
+    sol = optimize.minimize_scalar(rss, bounds=(max(math.log(g_lo), x_b - step), min(math.log(g_hi), x_b + step)),
+                                   method="bounded", options={"xatol": 1e-3})
+    gap = float(math.exp(sol.x)) if sol.fun <= best[0] else best[1]
+    y1 = tm.target(share, zeta, gap)
+    _, r0 = _solve(tm.X, y0, tm.names)
+    _, r1 = _solve(tm.X, y1, tm.names)
+    g, z = cv_compare(cv_losses_xy(tm.names, tm.X, y0, k_folds), cv_losses_xy(tm.names, tm.X, y1, k_folds))
+    return g, z, {"gap": gap, "rss_gap": float(r1 @ r1), "rss_compliant": float(r0 @ r0), "load_share": share,
+                  "damping_ratio": zeta}
