@@ -569,7 +569,6 @@ def _beats_gear_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: L
     from plant.calibration.two_mass import gap_against_compliance   # two_mass imports this module
     width = c["fit"].spec.backlash_width or 0.0
     g2, z2, info = gap_against_compliance(prep, cur, k, width, cfg.k_folds)
-    c["two_mass_test"] = dict(info, cv_gain_pct=g2, cv_z=z2)
     if predicts(g2, z2, zc):
         c["evidence"] = (c.get("evidence", "") + f"; the massless spring predicted as well as the massless play (gain "
                          f"{g:.2f} %), but with the load's inertia a gap of {info['gap']:.3g} in the declared gear predicts "
