@@ -357,6 +357,9 @@ class ModelSpec:
     #   viscous terms times τ and τ², τ = normalised time), "delay" (the jerk column: a shift of the
     #   torque against the motion, to first order), "velocity_function" (piecewise-linear in |dq| per
     #   direction, used only to test whether a time line is a velocity-dependent error),
+    #   "friction_along_travel" (the Coulomb column times hinges in the position at its 5-95 %
+    #   quantiles: a friction level that varies along the travel, used only to test whether a time
+    #   line is such a friction, session 39),
     #   "phase_function" (sin, cos of k·2π·phase_hz·t, k = 1..phase_harmonics: any smooth function of
     #   a periodic motion's phase, used only to test whether a smooth term stands in for the model's
     #   own error on a periodic trajectory, loop.periodic_motion_hz)
@@ -590,6 +593,14 @@ def design_columns(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None,
             tau = (t - t[0]) / max(float(t[-1] - t[0]), 1e-12)
             names += ["nz_drift_c1", "nz_drift_w1", "nz_drift_c2", "nz_drift_w2"]
             cols += [c * tau, w * tau, c * tau**2, w * tau**2]
+        elif nz == "friction_along_travel":
+            # the Coulomb column times a piecewise-linear function of the position (hinges at the
+            # 5-95 % quantiles): a friction level that changes along the travel (bearing load with
+            # the axis attitude, seal or cable drag), direction-odd as friction is; session 39
+            knots = np.quantile(q, [0.05, 0.25, 0.5, 0.75, 0.95])
+            for j, kn in enumerate(knots):
+                names.append(f"nz_travel{j}")
+                cols.append(c * np.maximum(q - kn, 0.0))
         elif nz == "delay":
             names.append("nz_delay_jerk")
             cols.append(np.gradient(ddq, dt))

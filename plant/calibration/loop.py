@@ -113,6 +113,9 @@ class LoopConfig:
     #: by the user from the drive's design (``--gear-stiffness``): a reversal effect must then also
     #: predict better than the current model with this spring in it (:func:`_beats_gear_spring`)
     gear_stiffness: float | None = None
+    #: test a time line against a friction level that varies along the travel
+    #: (:func:`_not_friction_along_travel`, session 39); False only to measure the test's effect
+    travel_friction_guard: bool = True
 
 
 @dataclasses.dataclass
@@ -1379,6 +1382,45 @@ def _gain_with_nuisance(prep: Prepared, cur: ModelSpec, cand: ModelSpec, nuisanc
     return cv_compare(cv_losses(prep, s0, k_folds), cv_losses(prep, s1, k_folds))
 
 
+def _not_friction_along_travel(prep: Prepared, cur: ModelSpec, c: dict[str, Any], zc: float,
+                               cfg: LoopConfig) -> str | None:
+    """None if the time line ``c`` still predicts held-out blocks at the run's level ``zc`` with a
+    friction level that varies along the travel in both models, else why not (session 39).
+
+    A friction level that depends on the axis angle (a bearing whose normal load changes with the
+    attitude, seal or cable drag) is direction-odd torque ``sign(dq)·g(q)``. On a slow run the
+    position moves nearly linearly in time, so ``g(q)`` is a slow function of time and a time line
+    at a low frequency takes it (blind records with load-dependent friction: a line of
+    0.035–0.067 Hz named on 6 of 12 never-used records, session 38). The test puts the Coulomb
+    column times hinges in the position (:func:`plant.calibration.fit.design_columns`,
+    ``"friction_along_travel"``) into both models, as the velocity-function and phase tests do for
+    their alternatives: a real disturbance of many cycles over the travel keeps its gain; one that
+    the record cannot tell from such a friction does not, and its structure stays in
+    ``unexplained``. Cost: on a record that moves one way only, a slow real time line (fewer
+    cycles than the hinges can follow) is refused too — there the record cannot tell time from
+    position. The comparison uses only the held-out rows that neither model extrapolates to
+    (:func:`hidden_extrapolation`); with fewer than 125 such rows (5 batches of the rank test) the
+    test is not made and the line is not refused: no evidence against it."""
+    s0, s1 = cur.copy(), c["fit"].spec.copy()
+    for sp in (s0, s1):
+        sp.nuisance.append("friction_along_travel")
+    l0, l1 = cv_losses(prep, s0, cfg.k_folds), cv_losses(prep, s1, cfg.k_folds)
+    # only rows where neither model extrapolates its hinges: a held-out block at positions the
+    # other blocks did not visit (each leg of a tracking run at its own angle) is predicted by
+    # neither, and the difference of two wild extrapolations says nothing about the line
+    use = ~(l0.extrapolated | l1.extrapolated)
+    if int(use.sum()) < 5 * 25:
+        c["travel_friction_test"] = "not made: the hinges are extrapolated on nearly every held-out row"
+        return None
+    g, z = cv_compare(np.asarray(l0)[use], np.asarray(l1)[use])
+    c["gain_with_travel_friction_pct"], c["z_with_travel_friction"] = g, z
+    if predicts(g, z, zc):
+        return None
+    return (f"with a friction level that varies along the travel (Coulomb column × hinges in the position) in both "
+            f"models the line no longer predicts (gain {g:.2f} %, z = {z:.1f}, needs z ≥ {zc:.2f}): this record cannot "
+            "tell it from friction that depends on the axis angle")
+
+
 #: ``undecided`` entries' reasons: too few reversals for a reversal effect (:func:`min_events`), or a
 #: periodic motion on which the candidate predicts only as well as a function of its phase (session 33)
 UNDECIDED_REVERSALS = "reversals"
@@ -1504,6 +1546,9 @@ def run_loop(
                     why = (f"the motion has a line at this frequency ({100 * c['motion_share']:.0f} % of the velocity signal) "
                            f"and with a flexible velocity function in the model the line no longer predicts (gain {g:.2f} %, "
                            f"z = {z:.1f}): a velocity-dependent model error, not a disturbance")
+            if why is None and c["kind"] == "time_periodic" and cfg.travel_friction_guard:
+                # must still predict with a friction level that varies along the travel in both models
+                why = _not_friction_along_travel(prep, cur.spec, c, zc, cfg)
             if why is None and phase_hz is not None and c["kind"] == "time_periodic":
                 # within one frequency bin (1/T, Rayleigh) of a guarded harmonic: not resolvable from it
                 f_c = c["fit"].spec.time_frequencies[c["slot"]]
