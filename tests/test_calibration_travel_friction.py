@@ -73,6 +73,8 @@ def test_a_real_line_on_the_same_motion_is_still_named():
     res = loop.run_loop(prepare(_record(_slow_legs(), line=(0.4, 0.37))))
     lines = _lines(res)
     assert len(lines) == 1
+    ev = [a.evidence for a in res.accepted if a.kind == "time_periodic"][0]
+    assert "still predicts with a friction level that varies along the travel" in ev
     assert lines[0].frequency_hz == pytest.approx(0.37, rel=0.03)
     assert lines[0].amplitude_nm == pytest.approx(0.4, rel=0.3)
 

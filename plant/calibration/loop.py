@@ -1410,10 +1410,12 @@ def _not_friction_along_travel(prep: Prepared, cur: ModelSpec, c: dict[str, Any]
     # neither, and the difference of two wild extrapolations says nothing about the line
     use = ~(l0.extrapolated | l1.extrapolated)
     if int(use.sum()) < 5 * 25:
-        c["travel_friction_test"] = "not made: the hinges are extrapolated on nearly every held-out row"
+        c["travel_friction_note"] = ("The test against a friction level that varies along the travel was not made: "
+                                     "the position hinges are extrapolated on nearly every held-out row.")
         return None
     g, z = cv_compare(np.asarray(l0)[use], np.asarray(l1)[use])
-    c["gain_with_travel_friction_pct"], c["z_with_travel_friction"] = g, z
+    c["travel_friction_note"] = (f"It still predicts with a friction level that varies along the travel in both models "
+                                 f"(gain {g:.1f} %, z = {z:.1f}): not friction that depends on the axis angle.")
     if predicts(g, z, zc):
         return None
     return (f"with a friction level that varies along the travel (Coulomb column × hinges in the position) in both "
@@ -1636,7 +1638,8 @@ def run_loop(
                  "low-speed friction." if "gain_with_stribeck_pct" in chosen else "")
               + (f" Its direction-dependent viscous friction predicts better than a symmetric one with the Coulomb level "
                  f"split (gain {chosen['gain_over_coulomb_split_pct']:.1f} %, z = {chosen['z_over_coulomb_split']:.1f})."
-                 if "gain_over_coulomb_split_pct" in chosen else ""))
+                 if "gain_over_coulomb_split_pct" in chosen else "")
+              + (f" {chosen['travel_friction_note']}" if "travel_friction_note" in chosen else ""))
         acc = AcceptedEffect(kind=chosen["kind"], slot=chosen["slot"], rms_after=f.rms, variance_explained_pct=chosen["explained_pct"],
                              delta_bic=chosen["delta_bic"], evidence=ev, val_rms_after=chosen.get("val_rms"),
                              cv_gain_pct=chosen["cv_gain_pct"], cv_z=chosen["cv_z"], competitors=comps)
