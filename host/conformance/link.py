@@ -257,11 +257,13 @@ class Link:
     def _now(self) -> float:
         return self.clock.now if self.clock is not None else self.wall()
 
-    def _drain(self) -> None:
-        """Take every frame already received (no waiting, no advance of simulated time)."""
+    def _drain(self) -> List[Frame]:
+        """Take every frame already received (no waiting, no advance of simulated time); return them."""
+        got: List[Frame] = []
         while (m := self.bus.recv(0.0)) is not None:
-            self._take(m)
+            got.append(self._take(m))
             self._beat()
+        return got
 
     def frames_of(self, cob_id: int) -> List[Frame]:
         """The frames received on ``cob_id`` so far, in order (the list itself: do not modify).
@@ -395,12 +397,9 @@ class Link:
         tell an answer inside the window (stamp ≤ ``end``) from a late one. Counted as a capped
         wait only if the devices' clock still stands before ``end`` after the look.
         """
-        got: List[Frame] = []
         if self.clock is None or self._now() >= end:
-            return got
-        while (m := self.bus.recv(0.0)) is not None:
-            got.append(self._take(m))
-            self._beat()
+            return []
+        got = self._drain()
         if self._now() < end:
             self.capped_waits += 1          # the devices' clock stood still: reported
         return got

@@ -1373,13 +1373,21 @@ def _gain_with_nuisance(prep: Prepared, cur: ModelSpec, cand: ModelSpec, nuisanc
                         phase_hz: float | None = None, phase_harmonics: int = PHASE_HARMONICS) -> tuple[float, float]:
     """:func:`cv_compare` of the current model and the candidate, both with the nuisance description
     ``nuisance`` added (and ``phase_hz``, ``phase_harmonics`` set for ``"phase_function"``): (gain %, z)."""
+    return cv_compare(*_losses_with_nuisance(prep, cur, cand, nuisance, k_folds, phase_hz, phase_harmonics))
+
+
+def _losses_with_nuisance(prep: Prepared, cur: ModelSpec, cand: ModelSpec, nuisance: str, k_folds: int,
+                          phase_hz: float | None = None,
+                          phase_harmonics: int = PHASE_HARMONICS) -> tuple[CVErrors, CVErrors]:
+    """:func:`cv_losses` of the current model and the candidate, both with ``nuisance`` added (see
+    :func:`_gain_with_nuisance`)."""
     s0, s1 = cur.copy(), cand.copy()
     for sp in (s0, s1):
         sp.nuisance.append(nuisance)
         if phase_hz is not None:
             sp.phase_hz = phase_hz
             sp.phase_harmonics = phase_harmonics
-    return cv_compare(cv_losses(prep, s0, k_folds), cv_losses(prep, s1, k_folds))
+    return cv_losses(prep, s0, k_folds), cv_losses(prep, s1, k_folds)
 
 
 def _not_friction_along_travel(prep: Prepared, cur: ModelSpec, c: dict[str, Any], zc: float,
@@ -1401,10 +1409,7 @@ def _not_friction_along_travel(prep: Prepared, cur: ModelSpec, c: dict[str, Any]
     position. The comparison uses only the held-out rows that neither model extrapolates to
     (:func:`hidden_extrapolation`); with fewer than 125 such rows (5 batches of the rank test) the
     test is not made and the line is not refused: no evidence against it."""
-    s0, s1 = cur.copy(), c["fit"].spec.copy()
-    for sp in (s0, s1):
-        sp.nuisance.append("friction_along_travel")
-    l0, l1 = cv_losses(prep, s0, cfg.k_folds), cv_losses(prep, s1, cfg.k_folds)
+    l0, l1 = _losses_with_nuisance(prep, cur, c["fit"].spec, "friction_along_travel", cfg.k_folds)
     # only rows where neither model extrapolates its hinges: a held-out block at positions the
     # other blocks did not visit (each leg of a tracking run at its own angle) is predicted by
     # neither, and the difference of two wild extrapolations says nothing about the line

@@ -301,6 +301,31 @@ def _joint_refit(tm: "TwoMass", share: float, zeta: float, gap: float, g_lo: flo
     return float(math.exp(sol.x[0])), (sc, sv)
 
 
+def _best_gap(tm: "TwoMass", share: float, zeta: float, g_lo: float, g_hi: float, n: int,
+              step: float) -> float | None:
+    """The gap [rad or m] of least residual: the best of ``n`` log-spaced points from ``g_lo`` to
+    ``g_hi``, refined by bounded Brent in log space within ``step`` (a log-gap distance, the grid's
+    spacing) of it and within the grid's ends; None if the drive needs more than
+    :data:`MAX_SUBSTEPS` sub-steps per sample at every grid point. Shared by :func:`two_mass_gap`
+    and :func:`gap_against_compliance`."""
+    best = None
+    for g in np.geomspace(g_lo, g_hi, n):
+        r = tm.residual(share, zeta, float(g))
+        if r is not None and (best is None or float(r @ r) < best[0]):
+            best = (float(r @ r), float(g))
+    if best is None:
+        return None
+
+    def rss(x: float) -> float:
+        r = tm.residual(share, zeta, float(math.exp(x)))
+        return math.inf if r is None else float(r @ r)
+
+    x_b = math.log(best[1])
+    sol = optimize.minimize_scalar(rss, bounds=(max(math.log(g_lo), x_b - step), min(math.log(g_hi), x_b + step)),
+                                   method="bounded", options={"xatol": 1e-3})
+    return float(math.exp(sol.x)) if sol.fun <= best[0] else best[1]
+
+
 def two_mass_gap(prep: Prepared, fit: FitResult, stiffness: float, gap0: float,
                  k_folds: int = 8) -> tuple[float | None, dict[str, Any]]:
     """The gap of a geared drive refitted with the load's inertia and friction levels (module docstring).
@@ -344,24 +369,9 @@ def two_mass_gap(prep: Prepared, fit: FitResult, stiffness: float, gap0: float,
     if not g_hi > g_lo:
         return None, {"why": f"the gap's search window ends below {MIN_TRANSITION_COUNTS:g} position quanta"}
     share, zeta = NOMINAL_SHARE, NOMINAL_ZETA
-    best = None
-    for g in np.geomspace(g_lo, g_hi, GAP_GRID_POINTS):
-        r = tm.residual(share, zeta, float(g))
-        if r is not None and (best is None or float(r @ r) < best[0]):
-            best = (float(r @ r), float(g))
-    if best is None:
+    gap = _best_gap(tm, share, zeta, g_lo, g_hi, GAP_GRID_POINTS, math.log(GAP_SPAN ** 2) / (GAP_GRID_POINTS - 1))
+    if gap is None:
         return None, {"why": f"the drive needs more than {MAX_SUBSTEPS} sub-steps per sample"}
-
-    def rss(x: float) -> float:
-        r = tm.residual(share, zeta, float(math.exp(x)))
-        return math.inf if r is None else float(r @ r)
-
-    # the gap refined between the grid's neighbours of the best point (bounded Brent, log space)
-    step = math.log(GAP_SPAN ** 2) / (GAP_GRID_POINTS - 1)
-    x_b = math.log(best[1])
-    sol = optimize.minimize_scalar(rss, bounds=(max(math.log(g_lo), x_b - step), min(math.log(g_hi), x_b + step)),
-                                   method="bounded", options={"xatol": 1e-3})
-    gap = float(math.exp(sol.x)) if sol.fun <= best[0] else best[1]
     scales = (1.0, 1.0)
     f0 = tm.friction
     if JOINT_FRICTION:
@@ -431,24 +441,9 @@ def gap_against_compliance(prep: Prepared, fit: FitResult, stiffness: float, wid
     if y0 is None:
         return 0.0, 0.0, {"why": f"the drive needs more than {MAX_SUBSTEPS} sub-steps per sample"}
     n = max(3, int(math.ceil(GAP_GRID_POINTS * math.log(g_hi / g_lo) / math.log(GAP_SPAN ** 2))))
-    grid = np.geomspace(g_lo, g_hi, n)
-    best = None
-    for g in grid:
-        r = tm.residual(share, zeta, float(g))
-        if r is not None and (best is None or float(r @ r) < best[0]):
-            best = (float(r @ r), float(g))
-    if best is None:
+    gap = _best_gap(tm, share, zeta, g_lo, g_hi, n, math.log(g_hi / g_lo) / (n - 1))
+    if gap is None:
         return 0.0, 0.0, {"why": f"the drive needs more than {MAX_SUBSTEPS} sub-steps per sample"}
-
-    def rss(x: float) -> float:
-        r = tm.residual(share, zeta, float(math.exp(x)))
-        return math.inf if r is None else float(r @ r)
-
-    step = math.log(g_hi / g_lo) / (n - 1)
-    x_b = math.log(best[1])
-    sol = optimize.minimize_scalar(rss, bounds=(max(math.log(g_lo), x_b - step), min(math.log(g_hi), x_b + step)),
-                                   method="bounded", options={"xatol": 1e-3})
-    gap = float(math.exp(sol.x)) if sol.fun <= best[0] else best[1]
     y1 = tm.target(share, zeta, gap)
     _, r0 = _solve(tm.X, y0, tm.names)
     _, r1 = _solve(tm.X, y1, tm.names)
