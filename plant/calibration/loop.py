@@ -116,6 +116,9 @@ class LoopConfig:
     #: test a time line against a friction level that varies along the travel
     #: (:func:`_not_friction_along_travel`, session 39); False only to measure the test's effect
     travel_friction_guard: bool = True
+    #: refuse a line at an alias of the encoder's count rate (:func:`_count_alias`, session 40); False
+    #: only to measure the test's effect
+    count_alias_guard: bool = True
 
 
 @dataclasses.dataclass
@@ -507,6 +510,148 @@ def _line_resolved(fit: FitResult, kind: str, slot: int, resolution: float, spee
                 f"{n_q:.2g} position quanta (A/(J·ω²), J = {j:.4g}), below {MIN_TRANSITION_COUNTS:g}: the record "
                 "cannot tell it from the measurement chain's own structure (quantised feedback in the loop)")
     return None
+
+
+#: Constant-speed runs the count-alias test (:func:`_count_alias`) reads: at least this long [s]
+#: (assumed: a run must resolve a line to ≤ 0.5 Hz, one Rayleigh bin ``1/d``, to be compared with an alias) ...
+COUNT_ALIAS_MIN_RUN_S = 2.0
+#: ... with the filtered speed within this fraction of the run's median (assumed: 2 %, the speed ripple
+#: of a closed velocity loop at constant set-point; a ramp is not a run) ...
+COUNT_ALIAS_SPEED_TOL = 0.02
+#: ... and the harmonics ``k`` of the count rate whose aliases are compared (assumed: the quantisation
+#: error of ``floor(θ/q)`` is a sawtooth in the position with harmonics falling as ``1/k``; the sixth
+#: is 1/6 of the first, and a line still named at a higher alias is left to the other rules).
+COUNT_ALIAS_HARMONICS = 6
+
+
+def position_quantum(position: np.ndarray, rough: float) -> float | None:
+    """The record's position quantum ``q`` refined from its smallest step ``rough``: least squares of
+    ``x − x_min = q·n`` with ``n`` rounded, over ever larger spans (10², 10³, … quanta) so that the
+    rounding stays right; None if the positions are not integer multiples of one quantum
+    (rms misfit above 0.1 q, e.g. a filtered or pre-decimated record).
+
+    Parameters
+    ----------
+    position : ndarray, shape (N,)
+        Logged position [rad or m].
+    rough : float
+        Smallest non-zero step [rad or m] (:attr:`plant.calibration.fit.Prepared.position_resolution`);
+        its relative error from the log's printed digits is ~1e-8, too coarse for a count rate of
+        10⁵ counts/s.
+    """
+    if not rough > 0:
+        return None
+    x = np.asarray(position, float) - float(np.min(position))
+    q = float(rough)
+    for lim in (1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9):
+        sel = x <= lim * q
+        n = np.round(x[sel] / q)
+        nn = float(n @ n)
+        if nn > 0:
+            q = float(x[sel] @ n) / nn
+        if sel.all():
+            break
+    miss = x - q * np.round(x / q)
+    return q if float(np.sqrt(np.mean(miss**2))) < 0.1 * q else None
+
+
+def constant_speed_runs(prep: Prepared) -> tuple[list[tuple[float, float]], float | None]:
+    """The record's constant-speed runs as ``(count rate [counts/s], duration [s])`` and its position
+    quantum [rad or m], for :func:`_count_alias`; no runs and None when the logged position is not quantised (:func:`position_quantum`)
+    or the record was reduced before the fit (a long record's pre-decimation filters the position).
+
+    A run is a stretch of one direction whose filtered speed stays within
+    :data:`COUNT_ALIAS_SPEED_TOL` of its median for at least :data:`COUNT_ALIAS_MIN_RUN_S`; its count
+    rate is the slope of the *logged* (quantised) position over the run divided by the quantum: the
+    mean rate at which the encoder's counts pass, known to ~1e-9 relative over a run of seconds.
+    """
+    rec = prep.record
+    if "pre_decimation" in rec.extra or prep.t.size < 3:
+        return [], None
+    q = position_quantum(rec.position, prep.position_resolution)
+    if q is None:
+        return [], None
+    n0 = rec.position.size - prep.t.size
+    t, dq, x = prep.t, prep.dq, rec.position[n0:]
+    vmax = float(np.percentile(np.abs(dq), 99))
+    if not vmax > 0:
+        return [], q
+    moving = np.abs(dq) > 0.02 * vmax
+    sgn = np.sign(dq)
+    # one direction's moving stretches: boundaries where moving or the sign changes
+    edge = np.flatnonzero(np.diff(moving.astype(int)) != 0) + 1
+    edge = np.union1d(edge, np.flatnonzero(np.diff(sgn) != 0) + 1)
+    out = []
+    for a, b in zip(np.r_[0, edge], np.r_[edge, t.size]):
+        if b - a < 3 or not moving[a]:
+            continue
+        med = float(np.median(dq[a:b]))
+        ok = np.flatnonzero(np.abs(dq[a:b] - med) < COUNT_ALIAS_SPEED_TOL * abs(med)) + a
+        if ok.size < 3:
+            continue
+        runs = np.split(ok, np.flatnonzero(np.diff(ok) > 1) + 1)
+        r = max(runs, key=len)
+        d = float(t[r[-1]] - t[r[0]])
+        if d >= COUNT_ALIAS_MIN_RUN_S:
+            v = float(np.polyfit(t[r] - t[r[0]], x[r], 1)[0])
+            out.append((abs(v) / q, d))
+    return out, q
+
+
+def _count_alias(fit: FitResult, kind: str, slot: int, runs: list[tuple[float, float]], q: float | None,
+                 fs_hz: float) -> str | None:
+    """None unless a time or position line sits, on most of the record's constant-speed time, at an
+    alias of the encoder's count rate; then why the record cannot tell it from the measurement chain.
+
+    A velocity loop that differences quantised counts sees a quantisation error that is a sawtooth
+    in the position, one period per count: at a constant speed a line at ``k·r`` Hz and its
+    harmonics (``r`` the count rate, 10³–10⁵ Hz), which the loop turns into torque. A log that samples
+    the torque at ``fs`` without an anti-alias filter folds it to ``|k·r − m·fs|``, a low frequency
+    that keeps its phase along the position — a line with ``x = A/(J·ω²)`` of many quanta at the
+    alias, none at the real ``k·r``, so :func:`_line_resolved` cannot see it. Found on independent
+    record 12707 (session 40, docs/calibration.md): a clean sweep whose passes all run at one speed,
+    a position line named at 7.823 Hz (55 % of the residual) where the count rate's first alias is at
+    7.834 Hz, and its second and third harmonics refused at 15.65 and 23.45 Hz.
+
+    The test: on each run ``(r, d)`` from :func:`constant_speed_runs`, the line's frequency there
+    (a time line's ``f``; a position line's ``r·q/P``) lies within one Rayleigh bin ``1/d`` of
+    ``|k·r − m·fs|`` for some ``k ≤`` :data:`COUNT_ALIAS_HARMONICS`; the line is refused if that holds
+    on at least half of the runs' time (a real line at one speed meets an alias by chance with
+    probability about ``K·2/(d·fs/2)``, under 1 % on the benchmark's records).
+
+    Parameters
+    ----------
+    fit : FitResult
+        The candidate's fit.
+    kind, slot : str, int
+        ``"time_periodic"`` or ``"position_periodic"`` and the line's index; other kinds return None.
+    runs : list of (float, float)
+        ``(count rate [counts/s], duration [s])`` per run (:func:`constant_speed_runs`).
+    q : float
+        The position quantum [rad or m] (:func:`position_quantum`).
+    fs_hz : float
+        The log's sample rate [Hz].
+    """
+    if kind not in ("time_periodic", "position_periodic") or not runs or q is None or not q > 0:
+        return None
+    total = sum(d for _, d in runs)
+    hit = 0.0
+    worst = 0.0
+    for r, d in runs:
+        if kind == "time_periodic":
+            f = fit.spec.time_frequencies[slot]
+        else:
+            f = r * q / fit.spec.position_periods[slot]
+        near = min(abs(min((k * r) % fs_hz, fs_hz - (k * r) % fs_hz) - f) for k in range(1, COUNT_ALIAS_HARMONICS + 1))
+        if near < 1.0 / d:
+            hit += d
+            worst = max(worst, near)
+    if hit < 0.5 * total:
+        return None
+    return (f"on {100 * hit / total:.0f} % of the constant-speed time the line lies within one frequency bin "
+            f"(≤ {worst:.3g} Hz off) of an alias of the encoder's count rate folded by the log's {fs_hz:.4g} Hz "
+            f"(|k·r − m·fs|, k ≤ {COUNT_ALIAS_HARMONICS}): the quantisation of the loop's feedback sampled by the log, "
+            "the measurement chain's structure, not a torque on the axis")
 
 
 def _beats_gear_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: LoopConfig,
@@ -1493,6 +1638,8 @@ def run_loop(
     # the guard's harmonics: as many as the motion's velocity needs (session 25), at least PHASE_HARMONICS
     phase_k = motion_harmonics(prep, phase_hz) if phase_hz is not None else PHASE_HARMONICS
     t_span = float(prep.t[-1] - prep.t[0])
+    # the count-alias test's runs and quantum, once per run (_count_alias)
+    alias_runs, alias_q = constant_speed_runs(prep) if cfg.count_alias_guard else ([], None)
     if phase_hz is not None:
         # the lines themselves, so that a reader can check them against the motion: the fundamental can be a
         # sub-harmonic of the motion's own (session 33; periodic_motion's docstring)
@@ -1537,7 +1684,8 @@ def run_loop(
                                             "n_reversals": n_rev, "min_reversals": k_min}
             elif c["kind"] in EFFECT_KINDS:
                 why = _resolved(c["fit"], prep.position_resolution) or _line_resolved(
-                    c["fit"], c["kind"], c["slot"], prep.position_resolution, speed_typ, cfg.drive_periods, span)
+                    c["fit"], c["kind"], c["slot"], prep.position_resolution, speed_typ, cfg.drive_periods, span) or _count_alias(
+                    c["fit"], c["kind"], c["slot"], alias_runs, alias_q, 1.0 / prep.dt_s)
             if why is None:
                 why = _replaces_inertia(cur, c["fit"])
             if why is None and c["kind"] == "asymmetric_friction":
