@@ -116,6 +116,12 @@ def test_an_alias_of_the_count_rate_is_not_named(clean):
     res = loop.run_loop(clean)
     assert not _lines(res), [e.params() for e in _lines(res)]
     assert any("alias of the encoder's count rate" in r["reason"] for r in res.rejected)
+    # the structure stays in `unexplained`, and its note says what it is
+    at_alias = [u for u in res.unexplained if "alias of the encoder's count rate" in u.get("note", "")]
+    assert at_alias, res.unexplained
+    for u in at_alias:
+        f = u["frequency"] if u["domain"] == "time" else SPEED_RAD_S * u["frequency"]
+        assert f == pytest.approx(round(f / ALIAS_HZ) * ALIAS_HZ, abs=0.1)
 
 
 def test_a_real_ripple_on_the_same_motion_is_still_named():

@@ -557,8 +557,9 @@ def position_quantum(position: np.ndarray, rough: float) -> float | None:
 
 def constant_speed_runs(prep: Prepared) -> tuple[list[tuple[float, float]], float | None]:
     """The record's constant-speed runs as ``(count rate [counts/s], duration [s])`` and its position
-    quantum [rad or m], for :func:`_count_alias`; no runs and None when the logged position is not quantised (:func:`position_quantum`)
-    or the record was reduced before the fit (a long record's pre-decimation filters the position).
+    quantum [rad or m], for :func:`_count_alias`; no runs and None when the logged position is not
+    quantised (:func:`position_quantum`) or the record was reduced before the fit (a long record's
+    pre-decimation filters the position).
 
     A run is a stretch of one direction whose filtered speed stays within
     :data:`COUNT_ALIAS_SPEED_TOL` of its median for at least :data:`COUNT_ALIAS_MIN_RUN_S`; its count
@@ -571,7 +572,7 @@ def constant_speed_runs(prep: Prepared) -> tuple[list[tuple[float, float]], floa
     q = position_quantum(rec.position, prep.position_resolution)
     if q is None:
         return [], None
-    n0 = rec.position.size - prep.t.size
+    n0 = rec.position.size - prep.t.size   # prepare drops samples at the start only
     t, dq, x = prep.t, prep.dq, rec.position[n0:]
     vmax = float(np.percentile(np.abs(dq), 99))
     if not vmax > 0:
@@ -627,31 +628,58 @@ def _count_alias(fit: FitResult, kind: str, slot: int, runs: list[tuple[float, f
         ``"time_periodic"`` or ``"position_periodic"`` and the line's index; other kinds return None.
     runs : list of (float, float)
         ``(count rate [counts/s], duration [s])`` per run (:func:`constant_speed_runs`).
-    q : float
-        The position quantum [rad or m] (:func:`position_quantum`).
+    q : float or None
+        The position quantum [rad or m] (:func:`position_quantum`); None: no test.
     fs_hz : float
         The log's sample rate [Hz].
     """
     if kind not in ("time_periodic", "position_periodic") or not runs or q is None or not q > 0:
         return None
+    if kind == "time_periodic":
+        hit, worst = count_alias_share(fit.spec.time_frequencies[slot], None, runs, q, fs_hz)
+    else:
+        hit, worst = count_alias_share(None, 1.0 / fit.spec.position_periods[slot], runs, q, fs_hz)
+    if hit < 0.5:
+        return None
+    return (f"on {100 * hit:.0f} % of the constant-speed time the line lies within one frequency bin "
+            f"(≤ {worst:.3g} Hz off) {COUNT_ALIAS_WHAT.format(fs=fs_hz)}: the quantisation of the loop's feedback "
+            "sampled by the log, the measurement chain's structure, not a torque on the axis")
+
+
+#: How :func:`_count_alias` and the ``unexplained`` notes name the alias.
+COUNT_ALIAS_WHAT = ("of an alias of the encoder's count rate folded by the log's {fs:.4g} Hz "
+                    f"(|k·r − m·fs|, k ≤ {COUNT_ALIAS_HARMONICS})")
+
+
+def count_alias_share(f_hz: float | None, nu: float | None, runs: list[tuple[float, float]], q: float,
+                      fs_hz: float) -> tuple[float, float]:
+    """The fraction of the constant-speed time on which a line lies within one Rayleigh bin ``1/d``
+    of an alias ``|k·r − m·fs|`` (``k ≤`` :data:`COUNT_ALIAS_HARMONICS`) of the run's count rate
+    ``r``, and the largest such distance [Hz] (see :func:`_count_alias`).
+
+    Parameters
+    ----------
+    f_hz : float or None
+        A time line's frequency [Hz]; or None and ...
+    nu : float or None
+        ... a position line's frequency [cycles/rad or cycles/m], which on a run is ``r·q·nu`` Hz.
+    runs : list of (float, float)
+        ``(count rate [counts/s], duration [s])`` (:func:`constant_speed_runs`), not empty.
+    q : float
+        The position quantum [rad or m].
+    fs_hz : float
+        The log's sample rate [Hz].
+    """
     total = sum(d for _, d in runs)
     hit = 0.0
     worst = 0.0
     for r, d in runs:
-        if kind == "time_periodic":
-            f = fit.spec.time_frequencies[slot]
-        else:
-            f = r * q / fit.spec.position_periods[slot]
+        f = f_hz if f_hz is not None else r * q * nu
         near = min(abs(min((k * r) % fs_hz, fs_hz - (k * r) % fs_hz) - f) for k in range(1, COUNT_ALIAS_HARMONICS + 1))
         if near < 1.0 / d:
             hit += d
             worst = max(worst, near)
-    if hit < 0.5 * total:
-        return None
-    return (f"on {100 * hit / total:.0f} % of the constant-speed time the line lies within one frequency bin "
-            f"(≤ {worst:.3g} Hz off) of an alias of the encoder's count rate folded by the log's {fs_hz:.4g} Hz "
-            f"(|k·r − m·fs|, k ≤ {COUNT_ALIAS_HARMONICS}): the quantisation of the loop's feedback sampled by the log, "
-            "the measurement chain's structure, not a torque on the axis")
+    return (hit / total if total > 0 else 0.0), worst
 
 
 def _beats_gear_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: LoopConfig,
@@ -1462,17 +1490,33 @@ def _unexplained(prep: Prepared, fit: FitResult, cfg: LoopConfig, linear: bool, 
                     "(the velocity loop acting on quantised counts), not a torque on the axis")
         return "a spectral peak no library effect predicts on held-out blocks"
 
+    runs, q_exact = constant_speed_runs(prep) if cfg.count_alias_guard else ([], None)
+    fs_log = 1.0 / prep.dt_s
+
+    def alias_note(f_hz: float | None, nu: float | None) -> str | None:
+        # a peak at an alias of the count rate on most of the constant-speed time (_count_alias)
+        if not runs or q_exact is None:
+            return None
+        share, worst = count_alias_share(f_hz, nu, runs, q_exact, fs_log)
+        if share < 0.5:
+            return None
+        return (f"a spectral peak within one frequency bin (≤ {worst:.3g} Hz off, on {100 * share:.0f} % of the "
+                f"constant-speed time) {COUNT_ALIAS_WHAT.format(fs=fs_log)}: structure of the measurement chain (the "
+                "velocity loop's quantised feedback sampled by the log without an anti-alias filter), not a torque on "
+                "the axis")
+
     ps = res.position_spectrum(prep.q_dec, prep.dq_dec, fit.residual)
     var_mov = float(np.var(fit.residual[mov])) if mov.any() else float(np.var(fit.residual))
     for pk in res.find_peaks(ps, n_peaks=3, min_share=cfg.unexplained_min_share_pct / 100, fap_max=1e-3):
         out.append({"domain": "position", "frequency": pk["frequency"], "share_pct": 100 * pk["share"],
                     "unit": f"cycles/{'m' if linear else 'rad'}",
-                    "note": peak_note(pk["share"], var_mov, 2.0 * math.pi * pk["frequency"] * speed_typ)})
+                    "note": alias_note(None, pk["frequency"])
+                    or peak_note(pk["share"], var_mov, 2.0 * math.pi * pk["frequency"] * speed_typ)})
     ts = res.time_spectrum(prep.t_dec, fit.residual)
     var_all = float(np.var(fit.residual))
     for pk in res.find_peaks(ts, n_peaks=3, min_share=cfg.unexplained_min_share_pct / 100, fap_max=1e-3):
         item = {"domain": "time", "frequency": pk["frequency"], "share_pct": 100 * pk["share"], "unit": "Hz",
-                "note": peak_note(pk["share"], var_all, 2.0 * math.pi * pk["frequency"])}
+                "note": alias_note(pk["frequency"], None) or peak_note(pk["share"], var_all, 2.0 * math.pi * pk["frequency"])}
         ms = motion_share(prep, pk["frequency"])
         if ms >= 0.02:
             item["note"] = (f"coincides with a line of the motion itself ({100 * ms:.0f} % of the velocity signal's variance): "
