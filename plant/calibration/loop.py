@@ -1472,7 +1472,10 @@ def time_shift_diagnostic(prep: Prepared, fit: FitResult) -> dict[str, float]:
     return {"shift_s": -tau, "share_pct": 100.0 * (1.0 - float(r2 @ r2) / float(r @ r))}
 
 
-def _unexplained(prep: Prepared, fit: FitResult, cfg: LoopConfig, linear: bool, ool: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def _unexplained(prep: Prepared, fit: FitResult, cfg: LoopConfig, linear: bool, ool: list[dict[str, Any]],
+                 alias: tuple[list[tuple[float, float]], float | None] = ([], None)) -> list[dict[str, Any]]:
+    """The ``unexplained`` entries; ``alias`` is :func:`constant_speed_runs`'s result (runs, quantum), computed
+    once by :func:`run_loop`, for the notes of peaks at an alias of the count rate."""
     out = [dict(x) for x in ool]
     j = fit.param("inertia") if "inertia" in fit.names else 0.0
     mov = res.moving_mask(prep.dq_dec)
@@ -1490,7 +1493,7 @@ def _unexplained(prep: Prepared, fit: FitResult, cfg: LoopConfig, linear: bool, 
                     "(the velocity loop acting on quantised counts), not a torque on the axis")
         return "a spectral peak no library effect predicts on held-out blocks"
 
-    runs, q_exact = constant_speed_runs(prep) if cfg.count_alias_guard else ([], None)
+    runs, q_exact = alias
     fs_log = 1.0 / prep.dt_s
 
     def alias_note(f_hz: float | None, nu: float | None) -> str | None:
@@ -1865,7 +1868,7 @@ def run_loop(
     vf = predict(prep_val, cur) if prep_val is not None else None
     vl = predict(prep_val, cur, library_only=True) if prep_val is not None else None
     return LoopResult(
-        baseline=base, final=cur, accepted=accepted, rejected=rejected, unexplained=_unexplained(prep, cur, cfg, linear, ool),
+        baseline=base, final=cur, accepted=accepted, rejected=rejected, unexplained=_unexplained(prep, cur, cfg, linear, ool, (alias_runs, alias_q)),
         stribeck=stribeck, val_rms_before=val_before,
         val_rms_after=float(np.sqrt(np.mean(vf[1] ** 2))) if vf is not None else None,
         val_rms_after_library=float(np.sqrt(np.mean(vl[1] ** 2))) if vl is not None else None,
