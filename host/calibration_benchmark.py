@@ -19,6 +19,10 @@ loop named against what was hidden:
   lists in ``undecided`` (a reversal effect on too few reversals for the rule to pass, with the
   reversals and the number needed; or a term the phase guard refuses on a periodic motion) — still
   counted as wrong;
+* **per kind, when named and when hidden**: of the records that name a library kind, how many hide
+  it (what an engineer can read into a report that names it: a precision), and of the records that
+  hide it, how many name it (a recall); session 41 found that on never-used records pre-sliding is
+  named almost as often where it is not hidden as where it is, which the exact-set figure does not show;
 * **key-parameter errors** of correctly named kinds (period/frequency: relative error, target
   3 %; amplitudes, backlash width, asymmetric viscous coefficients: 30 %; σ0 reported, no target);
 * **time and peak memory** per record and per sample.
@@ -165,6 +169,8 @@ def score(records: list[dict[str, Any]], out_of_library: tuple[str, ...] = OUT_O
     ool_unexplained = 0
     n_clean = n_ool = 0
     missed_undecided: list[int] = []   # records whose only misses are reported undecided
+    per_kind = {k: {"named": 0, "named_and_hidden": 0, "hidden": 0, "hidden_and_named": 0, "wrongly_named_seeds": []}
+                for k in LIBRARY_KINDS}
     errors: dict[str, dict[str, list[float]]] = {k: {p: [] for p in v} for k, v in KEY_PARAMS.items()}
     for r in records:
         named = set(r["named"])
@@ -175,6 +181,14 @@ def score(records: list[dict[str, Any]], out_of_library: tuple[str, ...] = OUT_O
                 conf[h][n] += 1
         r["exact"] = named == hidden_lib
         n_exact += r["exact"]
+        for k in named & set(per_kind):
+            per_kind[k]["named"] += 1
+            per_kind[k]["named_and_hidden"] += k in hidden_lib
+            if k not in hidden_lib:
+                per_kind[k]["wrongly_named_seeds"].append(r["seed"])
+        for k in hidden_lib:
+            per_kind[k]["hidden"] += 1
+            per_kind[k]["hidden_and_named"] += k in named
         missed = hidden_lib - named
         if missed and not named - hidden_lib and missed <= {u["kind"] for u in r.get("undecided", [])}:
             missed_undecided.append(r["seed"])
@@ -214,6 +228,10 @@ def score(records: list[dict[str, Any]], out_of_library: tuple[str, ...] = OUT_O
         "out_of_library": {"n": n_ool, "ok": int(sum(ool_ok)), "ok_fraction": (sum(ool_ok) / n_ool) if n_ool else None,
                            "with_unexplained_entry": ool_unexplained},
         "confusion": {"rows": rows, "cols": cols, "counts": conf},
+        # when a report names the kind, how often the record hides it; when a record hides it, how often it is named
+        "per_kind": {k: {**v, "named_right_fraction": (v["named_and_hidden"] / v["named"]) if v["named"] else None,
+                         "found_fraction": (v["hidden_and_named"] / v["hidden"]) if v["hidden"] else None}
+                     for k, v in per_kind.items()},
         "key_parameters": key,
         "time": {"median_s": float(np.median(walls)) if walls else None, "max_s": max(walls) if walls else None,
                  "median_us_per_sample": 1e6 * float(np.median(per_sample_s)) if per_sample_s else None,
@@ -367,6 +385,15 @@ def markdown(result: dict[str, Any]) -> str:
     for r in c["rows"]:
         if sum(c["counts"][r].values()):
             L.append(f"| {r} | " + " | ".join(str(c["counts"][r][k] or "") for k in c["cols"]) + " |")
+    if "per_kind" in s:
+        L += ["", "## Per kind: when a report names it, and when a record hides it", "",
+              "| kind | named | of which hidden | hidden | of which named | named where not hidden (seeds) |",
+              "|---|---|---|---|---|---|"]
+        for k, v in s["per_kind"].items():
+            if v["named"] or v["hidden"]:
+                L.append(f"| {k} | {v['named']} | {v['named_and_hidden']} ({_pct(v['named_right_fraction'])}) | {v['hidden']} | "
+                         f"{v['hidden_and_named']} ({_pct(v['found_fraction'])}) | "
+                         f"{', '.join(map(str, v['wrongly_named_seeds'])) or '—'} |")
     L += ["", "## Key parameters (correctly named kinds)", "", "| parameter | n | median error | max error | tolerance | within |",
           "|---|---|---|---|---|---|"]
     for k, v in s["key_parameters"].items():

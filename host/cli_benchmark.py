@@ -4,7 +4,8 @@
 generates the records of an independent generator (:mod:`plant.calibration.bench_records`, or with
 ``--generator blind`` :mod:`plant.calibration.blind_records`, written without reading the loop;
 both import nothing from ``plant``), runs ``calibrate`` on each in a child process and writes ``benchmark.json`` and
-``benchmark.md`` (confusion matrix, exact-set accuracy, false positives, key-parameter errors,
+``benchmark.md`` (confusion matrix, exact-set accuracy, false positives, per kind how often a named
+kind is hidden and a hidden kind named, key-parameter errors,
 time and peak memory per record; :mod:`host.calibration_benchmark`). The default seed list is
 fixed, so the figures are reproducible.
 """
@@ -71,5 +72,7 @@ def run(args: argparse.Namespace) -> int:
     s = res["summary"]
     print(f"exact set {s['n_exact']}/{s['n_records']}; clean false positives {len(s['clean']['false_positive_seeds'])}/{s['clean']['n']}; "
           f"out-of-library ok {s['out_of_library']['ok']}/{s['out_of_library']['n']}")
+    print("when named, hidden (per kind): " + "; ".join(f"{k} {v['named_and_hidden']}/{v['named']}"
+                                                      for k, v in s["per_kind"].items() if v["named"]))
     print(f"wrote {args.out}/benchmark.json and benchmark.md")
     return 0

@@ -84,6 +84,7 @@ def test_benchmark_writes_its_figures(ci_benchmark):
         assert isinstance(r["undecided"], list)
     assert "missed_reported_undecided" in s
     assert "Confusion matrix" in (out / "benchmark.md").read_text()
+    assert "per_kind" in s and "Per kind" in (out / "benchmark.md").read_text()
 
 
 def test_benchmark_no_invention_on_ci_subset(ci_benchmark):
@@ -135,3 +136,25 @@ def test_score_counts_misses_the_record_could_not_decide():
     s = score(recs)
     assert s["missed_reported_undecided"] == {"n": 2, "seeds": [1, 4]}
     assert s["n_exact"] == 1
+
+
+def test_score_per_kind_named_and_hidden():
+    """Per kind: of the records naming it, how many hide it; of those hiding it, how many name it;
+    and the seeds that name it where it is not hidden (session 41). Counted by hand below."""
+    from host.calibration_benchmark import score
+
+    recs = [
+        {"seed": 1, "hidden": ["presliding"], "named": ["presliding"], "unexplained": [], "undecided": []},
+        {"seed": 2, "hidden": ["delay"], "named": ["presliding"], "unexplained": [], "undecided": []},
+        {"seed": 3, "hidden": [], "named": ["presliding", "time_periodic"], "unexplained": [], "undecided": []},
+        {"seed": 4, "hidden": ["presliding", "backlash"], "named": ["backlash"], "unexplained": [], "undecided": []},
+        {"seed": 5, "hidden": ["time_periodic"], "named": [], "unexplained": [], "undecided": []},
+    ]
+    k = score(recs)["per_kind"]
+    assert (k["presliding"]["named"], k["presliding"]["named_and_hidden"], k["presliding"]["wrongly_named_seeds"]) == (3, 1, [2, 3])
+    assert (k["presliding"]["hidden"], k["presliding"]["hidden_and_named"]) == (2, 1)
+    assert k["presliding"]["named_right_fraction"] == 1 / 3 and k["presliding"]["found_fraction"] == 0.5
+    assert (k["time_periodic"]["named"], k["time_periodic"]["named_and_hidden"], k["time_periodic"]["hidden"]) == (1, 0, 1)
+    assert k["time_periodic"]["named_right_fraction"] == 0.0 and k["time_periodic"]["found_fraction"] == 0.0
+    assert (k["backlash"]["named_right_fraction"], k["backlash"]["found_fraction"]) == (1.0, 1.0)
+    assert k["gravity_imbalance"]["named_right_fraction"] is None and k["gravity_imbalance"]["found_fraction"] is None
