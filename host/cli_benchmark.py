@@ -5,7 +5,7 @@ generates the records of an independent generator (:mod:`plant.calibration.bench
 ``--generator blind`` :mod:`plant.calibration.blind_records`, written without reading the loop;
 both import nothing from ``plant``), runs ``calibrate`` on each in a child process and writes ``benchmark.json`` and
 ``benchmark.md`` (confusion matrix, exact-set accuracy, false positives, per kind how often a named
-kind is hidden and a hidden kind named, key-parameter errors,
+kind is hidden and a hidden kind named, what the records' true motion allows, key-parameter errors,
 time and peak memory per record; :mod:`host.calibration_benchmark`). The default seed list is
 fixed, so the figures are reproducible.
 """
@@ -74,5 +74,10 @@ def run(args: argparse.Namespace) -> int:
           f"out-of-library ok {s['out_of_library']['ok']}/{s['out_of_library']['n']}")
     print("when named, hidden (per kind): " + "; ".join(f"{k} {v['named_and_hidden']}/{v['named']}"
                                                       for k, v in s["per_kind"].items() if v["named"]))
+    if s.get("limits"):
+        lim = s["limits"]
+        print(f"what the records allow (true motion): nameable at all {lim['nameable']}/{s['n_records']}, at the rule's level "
+              f"{lim['nameable_at_rule_level']}/{s['n_records']}; wrong by class: "
+              + ("; ".join(f"{k} {v['n']}" for k, v in lim["classes"].items()) or "none"))
     print(f"wrote {args.out}/benchmark.json and benchmark.md")
     return 0

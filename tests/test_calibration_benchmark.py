@@ -85,6 +85,8 @@ def test_benchmark_writes_its_figures(ci_benchmark):
     assert "missed_reported_undecided" in s
     assert "Confusion matrix" in (out / "benchmark.md").read_text()
     assert "per_kind" in s and "Per kind" in (out / "benchmark.md").read_text()
+    assert s["limits"]["nameable"] <= s["n_records"] and "what the records allow" in (out / "benchmark.md").read_text()
+    assert all("motion" in r and "miss_class" in r for r in res["records"])
 
 
 def test_benchmark_no_invention_on_ci_subset(ci_benchmark):
@@ -158,3 +160,53 @@ def test_score_per_kind_named_and_hidden():
     assert k["time_periodic"]["named_right_fraction"] == 0.0 and k["time_periodic"]["found_fraction"] == 0.0
     assert (k["backlash"]["named_right_fraction"], k["backlash"]["found_fraction"]) == (1.0, 1.0)
     assert k["gravity_imbalance"]["named_right_fraction"] is None and k["gravity_imbalance"]["found_fraction"] is None
+
+
+def test_record_motion_counts_trajectory_reversals_not_overshoot():
+    """Reversals are sign changes between runs of one sign at least MIN_RUN_S long: a servo's 0.1 s
+    overshoot at a stop is not one, a slow stair (1e-3 of the peak speed) still is. Written here:
+    +0.1 rad/s 2 s, −0.002 rad/s 0.1 s (overshoot), 0 for 1 s, +1e-4 rad/s 2 s (slow stair), −0.05 rad/s 2 s."""
+    from types import SimpleNamespace
+
+    from host.calibration_benchmark import record_motion
+
+    dt = 1e-3
+    v = np.concatenate([np.full(2000, 0.1), np.full(100, -0.002), np.zeros(1000), np.full(2000, 1e-4), np.full(2000, -0.05)])
+    rec = SimpleNamespace(t_s=np.arange(v.size) * dt, velocity_rad_s=v, meta={}, hidden=(), truth={})
+    assert record_motion(rec) == {"n_reversals": 1, "one_way": False, "gap_over_windup": None}
+    rec1 = SimpleNamespace(t_s=np.arange(4000) * dt, velocity_rad_s=np.full(4000, 0.1), meta={}, hidden=(), truth={})
+    assert record_motion(rec1)["one_way"] and record_motion(rec1)["n_reversals"] == 0
+    # the blind generator's own count; a two-mass backlash: gap over the wind-up 2Fc/K
+    rec2 = SimpleNamespace(meta={"n_reversals": 4, "two_mass": {"stiffness_nm_rad": 4000.0}, "coulomb_nm": 5.0},
+                           hidden=("backlash",), truth={"backlash": {"width_rad": 1e-4}})
+    m = record_motion(rec2)
+    assert m["n_reversals"] == 4 and not m["one_way"] and m["gap_over_windup"] == pytest.approx(1e-4 / (2 * 5.0 / 4000.0))
+
+
+def test_score_classes_misses_by_what_the_records_allow():
+    """Classes by hand (A not in the motion, B gap under the wind-up, C too few reversals, D other,
+    E named and not hidden) and the two ceilings."""
+    from host.calibration_benchmark import MIN_REVERSALS, score
+
+    def rec(seed, hidden, named, n_rev=20, one_way=False, gap=None):
+        return {"seed": seed, "hidden": hidden, "named": named, "unexplained": [], "undecided": [],
+                "motion": {"n_reversals": n_rev, "one_way": one_way, "gap_over_windup": gap}}
+
+    recs = [
+        rec(1, ["asymmetric_friction"], [], n_rev=0, one_way=True),       # A
+        rec(2, ["backlash"], [], gap=0.01),                              # B
+        rec(3, ["presliding"], [], n_rev=MIN_REVERSALS - 1),             # C
+        rec(4, ["presliding"], [], n_rev=MIN_REVERSALS),                 # D: enough reversals
+        rec(5, [], ["presliding"]),                                      # E
+        rec(6, ["presliding"], ["backlash"], n_rev=3),                   # C and E
+        rec(7, ["gravity_imbalance"], ["gravity_imbalance"]),            # exact
+        rec(8, ["backlash"], [], n_rev=0, gap=0.01),                     # A before B
+    ]
+    s = score(recs)
+    assert [r["miss_class"] for r in recs] == ["A", "B", "C", "D", "E", "CE", "", "A"]
+    lim = s["limits"]
+    assert lim["classes"]["A"] == {"n": 2, "seeds": [1, 8]} and lim["classes"]["CE"]["seeds"] == [6]
+    assert lim["nameable"] == 8 - 3 and lim["nameable_at_rule_level"] == 8 - 5
+    assert s["n_exact"] == 1
+    # records without their motion: no limits (a run before session 41)
+    assert score([{k: v for k, v in r.items() if k != "motion"} for r in recs])["limits"] is None

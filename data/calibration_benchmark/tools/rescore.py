@@ -3,8 +3,9 @@
 Two uses:
 
 * ``python rescore.py benchmark DIR`` — recompute the summary of ``DIR/benchmark.json`` from its
-  stored per-record results (what ran; nothing is calibrated again) and rewrite ``benchmark.json``
-  and ``benchmark.md``. Refuses to write if any figure the stored summary already had changes.
+  stored per-record results (what ran; nothing is calibrated again; a record without its true motion
+  gets it from its generator and seed, :func:`host.calibration_benchmark.record_motion`) and rewrite
+  ``benchmark.json`` and ``benchmark.md``. Refuses to write if any figure the stored summary already had changes.
 * ``python rescore.py runs OUT.md RUN.json ...`` — the runner outputs of the sessions' decision runs
   (``flag_runner.py``: one list of records, both generators) scored per generator, the markdown
   summary and per-kind table written to OUT.md.
@@ -13,12 +14,16 @@ Run from the repository root (``host`` must import).
 """
 import copy, importlib, json, os, sys
 sys.path.insert(0, os.getcwd())
-from host.calibration_benchmark import GENERATORS, _clean, markdown, score
+from host.calibration_benchmark import GENERATORS, _clean, generator, markdown, record_motion, score
 
 
 def benchmark(d):
     p = os.path.join(d, "benchmark.json")
     b = json.load(open(p))
+    gen = generator(b["generator"])
+    for r in b["records"]:
+        if "motion" not in r:   # a record of a run before session 41: its true motion, from the same seed
+            r["motion"] = record_motion(gen.make_record(int(r["seed"])))
     new = score(copy.deepcopy(b["records"]), tuple(importlib.import_module(b["generator_module"]).OUT_OF_LIBRARY))
     for k, v in b["summary"].items():
         if json.dumps(v, sort_keys=True, default=str) != json.dumps(new[k], sort_keys=True, default=str):
