@@ -49,7 +49,7 @@ from typing import Any
 import numpy as np
 
 from plant.calibration.bench_records import CI_SEEDS, DEFAULT_SEEDS, LIBRARY_KINDS, OUT_OF_LIBRARY, make_record
-from plant.calibration.loop import LoopConfig, min_events
+from plant.calibration.loop import REVERSAL_KINDS, LoopConfig, min_events
 from plant.effects import EFFECT_KINDS
 
 __all__ = ["run_benchmark", "score", "record_motion", "miss_class", "MISS_CLASSES", "KEY_PARAMS", "TARGETS", "DEFAULT_SEEDS", "CI_SEEDS", "GENERATORS", "generator"]
@@ -127,7 +127,6 @@ MISS_CLASSES = {
     "D": "another miss",
     "E": "a kind named that the record does not hide",
 }
-_REVERSAL_KINDS = ("presliding", "backlash")
 
 
 def record_motion(rec: Any) -> dict[str, Any]:
@@ -182,11 +181,11 @@ def miss_class(r: dict[str, Any]) -> str:
     hidden_lib = {h for h in r["hidden"] if h in LIBRARY_KINDS}
     tags = set()
     for h in hidden_lib - set(r["named"]):
-        if (h == "asymmetric_friction" and m["one_way"]) or (h in _REVERSAL_KINDS and m["n_reversals"] == 0):
+        if (h == "asymmetric_friction" and m["one_way"]) or (h in REVERSAL_KINDS and m["n_reversals"] == 0):
             tags.add("A")
         elif h == "backlash" and m["gap_over_windup"] is not None and m["gap_over_windup"] < GAP_OVER_WINDUP_MIN:
             tags.add("B")
-        elif h in _REVERSAL_KINDS and m["n_reversals"] < MIN_REVERSALS:
+        elif h in REVERSAL_KINDS and m["n_reversals"] < MIN_REVERSALS:
             tags.add("C")
         else:
             tags.add("D")
@@ -458,6 +457,18 @@ def _pct(x) -> str:
     return "—" if x is None else f"{100 * x:.1f} %"
 
 
+def per_kind_table(summary: dict[str, Any]) -> list[str]:
+    """The markdown lines of :func:`score`'s ``per_kind`` (kinds neither named nor hidden left out)."""
+    L = ["| kind | named | of which hidden | hidden | of which named | named where not hidden (seeds) |",
+         "|---|---|---|---|---|---|"]
+    for k, v in summary["per_kind"].items():
+        if v["named"] or v["hidden"]:
+            L.append(f"| {k} | {v['named']} | {v['named_and_hidden']} ({_pct(v['named_right_fraction'])}) | {v['hidden']} | "
+                     f"{v['hidden_and_named']} ({_pct(v['found_fraction'])}) | "
+                     f"{', '.join(map(str, v['wrongly_named_seeds'])) or '—'} |")
+    return L
+
+
 def markdown(result: dict[str, Any]) -> str:
     """``benchmark.md``: the summary, the confusion matrix and the per-record table."""
     s = result["summary"]
@@ -504,14 +515,7 @@ def markdown(result: dict[str, Any]) -> str:
         if sum(c["counts"][r].values()):
             L.append(f"| {r} | " + " | ".join(str(c["counts"][r][k] or "") for k in c["cols"]) + " |")
     if "per_kind" in s:
-        L += ["", "## Per kind: when a report names it, and when a record hides it", "",
-              "| kind | named | of which hidden | hidden | of which named | named where not hidden (seeds) |",
-              "|---|---|---|---|---|---|"]
-        for k, v in s["per_kind"].items():
-            if v["named"] or v["hidden"]:
-                L.append(f"| {k} | {v['named']} | {v['named_and_hidden']} ({_pct(v['named_right_fraction'])}) | {v['hidden']} | "
-                         f"{v['hidden_and_named']} ({_pct(v['found_fraction'])}) | "
-                         f"{', '.join(map(str, v['wrongly_named_seeds'])) or '—'} |")
+        L += ["", "## Per kind: when a report names it, and when a record hides it", ""] + per_kind_table(s)
     L += ["", "## Key parameters (correctly named kinds)", "", "| parameter | n | median error | max error | tolerance | within |",
           "|---|---|---|---|---|---|"]
     for k, v in s["key_parameters"].items():

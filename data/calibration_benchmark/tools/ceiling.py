@@ -17,7 +17,7 @@ import collections, importlib, json, os, sys
 sys.path.insert(0, os.getcwd())
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from jobs import GEN, map_jobs
-from host.calibration_benchmark import miss_class, record_motion
+from host.calibration_benchmark import generator, record_motion, score
 
 
 def motion(job):
@@ -32,19 +32,16 @@ if __name__ == "__main__":
     ms = {(g, s): m for g, s, m in map_jobs(motion, [(r["generator"], r["seed"]) for r in runs])}
     out = []
     for gen in GEN:
-        rs = [r for r in runs if r["generator"] == gen]
+        rs = [{**r, "motion": ms[(gen, r["seed"])], "undecided": [], "wall_s": None} for r in runs if r["generator"] == gen]
         if not rs:
             continue
-        c = collections.Counter()
-        for r in rs:
-            m = ms[(gen, r["seed"])]
-            cls = miss_class({**r, "motion": m}) or "exact"
-            c[cls] += 1
-            out.append({"generator": gen, "seed": r["seed"], **m, "hidden": r["hidden"], "named": r["named"], "class": cls})
-        n = len(rs)
-        ab = n - sum(v for k, v in c.items() if k != "exact" and set(k) & set("AB"))
-        abc = n - sum(v for k, v in c.items() if k != "exact" and set(k) & set("ABC"))
+        s = score(rs, tuple(generator(gen).OUT_OF_LIBRARY))   # the benchmark's own classes and ceilings (``limits``)
+        lim, n = s["limits"], s["n_records"]
+        out += [{"generator": gen, "seed": r["seed"], **r["motion"], "hidden": r["hidden"], "named": r["named"],
+                 "class": r["miss_class"] or "exact"} for r in rs]
+        c = collections.Counter({"exact": s["n_exact"], **{k: v["n"] for k, v in lim["classes"].items()}})
         print(f"{gen}: {n} records; " + ", ".join(f"{k} {v}" for k, v in sorted(c.items(), key=lambda x: -x[1])))
-        print(f"  exact sets nameable at all (no A or B miss): {ab}/{n} = {100 * ab / n:.1f} %; at the loop's level "
-              f"(no A, B or C miss): {abc}/{n} = {100 * abc / n:.1f} %; named: {c['exact']}/{n} = {100 * c['exact'] / n:.1f} %")
+        print(f"  exact sets nameable at all (no A or B miss): {lim['nameable']}/{n} = {100 * lim['nameable'] / n:.1f} %; "
+              f"at the loop's level (no A, B or C miss): {lim['nameable_at_rule_level']}/{n} = "
+              f"{100 * lim['nameable_at_rule_level'] / n:.1f} %; named: {s['n_exact']}/{n} = {100 * s['n_exact'] / n:.1f} %")
     json.dump(out, open(sys.argv[1], "w"), indent=0)

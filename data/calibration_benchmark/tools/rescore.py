@@ -12,9 +12,9 @@ Two uses:
 
 Run from the repository root (``host`` must import).
 """
-import copy, importlib, json, os, sys
+import copy, json, os, sys
 sys.path.insert(0, os.getcwd())
-from host.calibration_benchmark import GENERATORS, _clean, generator, markdown, record_motion, score
+from host.calibration_benchmark import GENERATORS, _clean, generator, markdown, per_kind_table, record_motion, score
 
 
 def benchmark(d):
@@ -24,7 +24,7 @@ def benchmark(d):
     for r in b["records"]:
         if "motion" not in r:   # a record of a run before session 41: its true motion, from the same seed
             r["motion"] = record_motion(gen.make_record(int(r["seed"])))
-    new = score(copy.deepcopy(b["records"]), tuple(importlib.import_module(b["generator_module"]).OUT_OF_LIBRARY))
+    new = score(copy.deepcopy(b["records"]), tuple(gen.OUT_OF_LIBRARY))
     for k, v in b["summary"].items():
         if json.dumps(v, sort_keys=True, default=str) != json.dumps(new[k], sort_keys=True, default=str):
             sys.exit(f"{p}: summary field {k!r} differs when scored again; not rewritten")
@@ -43,21 +43,13 @@ def runs(out_md, paths):
               if r["generator"] == gen]
         if not rs:
             continue
-        s = score(rs, tuple(importlib.import_module(GENERATORS[gen]).OUT_OF_LIBRARY))
+        s = score(rs, tuple(generator(gen).OUT_OF_LIBRARY))
         seeds = sorted(r["seed"] for r in rs)
         L += [f"## {gen}: {len(rs)} records, seeds {seeds[0]}–{seeds[-1]} ({', '.join(paths)})", "",
               f"- exact set {s['n_exact']}/{s['n_records']} = {100 * s['exact_set_accuracy']:.1f} %; clean with an invented "
               f"effect {len(s['clean']['false_positive_seeds'])}/{s['clean']['n']}; out-of-library with no library kind "
               f"{s['out_of_library']['ok']}/{s['out_of_library']['n']}; wrong only by undecided kinds "
-              f"{s['missed_reported_undecided']['n']}", "",
-              "| kind | named | of which hidden | hidden | of which named | named where not hidden (seeds) |",
-              "|---|---|---|---|---|---|"]
-        for k, v in s["per_kind"].items():
-            nr = "—" if v["named_right_fraction"] is None else f"{100 * v['named_right_fraction']:.0f} %"
-            fd = "—" if v["found_fraction"] is None else f"{100 * v['found_fraction']:.0f} %"
-            L.append(f"| {k} | {v['named']} | {v['named_and_hidden']} ({nr}) | {v['hidden']} | {v['hidden_and_named']} ({fd}) | "
-                     f"{', '.join(map(str, v['wrongly_named_seeds'])) or '—'} |")
-        L.append("")
+              f"{s['missed_reported_undecided']['n']}", ""] + per_kind_table(s) + [""]
     open(out_md, "w").write("\n".join(L))
     print("\n".join(L))
 
