@@ -1,6 +1,6 @@
 """Session 24's runner (`session25_sweep_guard/runner.py`: records of either generator through
 `calibrate`, the drive's stiffness declared as the benchmark does) plus a flag per record: whether
-PHRASE occurs in the report's rejected candidates or effects — i.e. whether a change's rule acted
+PHRASE occurs in the report's rejected candidates, effects or log (the log since session 42) — i.e. whether a change's rule acted
 in that record (session 38's decisions run the change on all records and main only where it acted;
 elsewhere the two runs are the same computation). With --two-mass only the records whose planned
 hidden set holds backlash or a compliant mode are run (the generators' `plan()`).
@@ -31,7 +31,9 @@ _cal = base.calibrate_record
 
 def calibrate_record(gen, arg):
     mod, r, rep, wall = _cal(gen, arg)
-    calibrate_record.flag = PHRASE in json.dumps([rep.get("rejected", []), rep.get("effects", [])])
+    # the report's log too since session 42 (its rule's phrase is a log line: where it acts, nothing else
+    # need change in the report)
+    calibrate_record.flag = PHRASE in json.dumps([rep.get("rejected", []), rep.get("effects", []), rep.get("log", [])])
     return mod, r, rep, wall
 
 
