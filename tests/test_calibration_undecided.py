@@ -61,11 +61,13 @@ def test_no_undecided_entry_once_a_reversal_effect_is_decided(tmp_path):
 
 
 def test_gravity_on_a_sinusoid_is_reported_undecided_by_the_phase_guard(tmp_path):
-    """A rigid axis on a 5-cycle sinusoid over ±0.3 rad (34° of travel) with a 3 N·m imbalance, written here from
-    the equations (open loop, encoder-quantised position; no code of ``plant/`` makes it): gravity
-    predicts held-out blocks, but on a periodic motion ``sin(θ + φ)`` is a function of the phase
-    and the guard refuses it (session 18). The report must say the record cannot decide it and what
-    would (session 33), not only list it among the rejected candidates."""
+    """A rigid axis on a 5-cycle sinusoid over ±0.3 rad (34° of travel) with a 3 N·m imbalance centred on its
+    zero (``3 sin θ``, odd about the motion's centre), written here from the equations (open loop,
+    encoder-quantised position; no code of ``plant/`` makes it): gravity predicts held-out blocks,
+    but on a periodic motion ``sin θ`` is a function of the phase, and an odd one — the lines a
+    symmetric model's own error can have — so the guard refuses it (sessions 18 and 42; off its
+    zero the even part is named: test_calibration_phase_guard). The report must say the record
+    cannot decide it and what would (session 33), not only list it among the rejected candidates."""
     import math
 
     from plant.calibration.fit import prepare
@@ -77,7 +79,7 @@ def test_gravity_on_a_sinusoid_is_reported_undecided_by_the_phase_guard(tmp_path
     q = amp * np.sin(w * t)
     v = amp * w * np.cos(w * t)
     a = -amp * w * w * np.sin(w * t)
-    tau = 3.0 * a + 12.0 * v + 1.5 * np.tanh(v / 1e-3) + 0.2 + 3.0 * np.sin(q + 0.7)
+    tau = 3.0 * a + 12.0 * v + 1.5 * np.tanh(v / 1e-3) + 0.2 + 3.0 * np.sin(q)
     tau = tau + np.random.default_rng(5).normal(0.0, 0.03, t.size)
     cpr = 2**21 / (2 * math.pi)
     rec = Record(name="gravity_sinusoid", t_s=t, position=np.floor(q * cpr) / cpr, torque=tau)

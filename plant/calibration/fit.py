@@ -362,12 +362,16 @@ class ModelSpec:
     #   line is such a friction, session 39),
     #   "phase_function" (sin, cos of k·2π·phase_hz·t, k = 1..phase_harmonics: any smooth function of
     #   a periodic motion's phase, used only to test whether a smooth term stands in for the model's
-    #   own error on a periodic trajectory, loop.periodic_motion_hz)
+    #   own error on a periodic trajectory, loop.periodic_motion_hz; with ``phase_odd`` the odd k only:
+    #   the error of a model symmetric in the motion on a half-wave symmetric motion, loop.half_wave_fundamental)
     #: fundamental [Hz] of a periodic motion, for the ``"phase_function"`` nuisance
     phase_hz: float | None = None
     #: harmonics of ``phase_hz`` in the ``"phase_function"`` nuisance: as many as the motion's velocity
     #: needs (loop.motion_harmonics), at least :data:`PHASE_HARMONICS`
     phase_harmonics: int = PHASE_HARMONICS
+    #: only the odd harmonics k = 1, 3, … ≤ ``phase_harmonics`` in the ``"phase_function"`` nuisance (a
+    #: half-wave symmetric motion: loop.half_wave_fundamental, session 42)
+    phase_odd: bool = False
     gear_stiffness: float | None = None
     spring_coulomb: float | None = None
 
@@ -614,7 +618,7 @@ def design_columns(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None,
         elif nz == "phase_function":
             if spec.phase_hz is None:
                 raise ValueError("the phase_function nuisance needs ModelSpec.phase_hz")
-            for k in range(1, max(int(spec.phase_harmonics), PHASE_HARMONICS) + 1):
+            for k in range(1, max(int(spec.phase_harmonics), PHASE_HARMONICS) + 1, 2 if spec.phase_odd else 1):
                 x = 2 * np.pi * k * spec.phase_hz * t
                 names += [f"nz_phase{k}_sin", f"nz_phase{k}_cos"]
                 cols += [np.sin(x), np.cos(x)]

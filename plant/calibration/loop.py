@@ -37,7 +37,10 @@ Algorithm
    gravity, position-periodic or time-periodic candidate must pass the test again with those
    K harmonics in both models (the phase guard: position, velocity, acceleration and the motion's
    own lines are then functions of one phase, and a smooth term can stand in for the model's
-   error along it); a time-periodic candidate within one frequency bin (``1/T``, the record's
+   error along it); on a half-wave symmetric motion (:func:`half_wave_fundamental`) the guard holds
+   only the motion's odd harmonics, the only lines the error of a model symmetric in the motion
+   can have, and the library candidates that pass compete on their gain beyond them (session 42);
+   a time-periodic candidate within one frequency bin (``1/T``, the record's
    Rayleigh resolution) of one of those K harmonics is refused outright. Transitions (pre-sliding
    displacement, backlash width) under :data:`MIN_TRANSITION_COUNTS` position quanta are not
    resolved and not added, nor are time or position lines whose amplitude, as the inertial torque
@@ -119,6 +122,9 @@ class LoopConfig:
     #: refuse a line at an alias of the encoder's count rate (:func:`_count_alias`, session 40); False
     #: only to measure the test's effect
     count_alias_guard: bool = True
+    #: on a half-wave symmetric periodic motion the phase guard holds the odd harmonics of the
+    #: motion only (:func:`half_wave_fundamental`, session 42); False only to measure its effect
+    odd_phase_guard: bool = True
 
 
 @dataclasses.dataclass
@@ -1298,9 +1304,10 @@ PERIODIC_MAX_HARMONICS = 15
 PERIODIC_MIN_CYCLES = 3.0
 
 
-def _harmonic_shares(t: np.ndarray, v: np.ndarray, var: float, f: float, k_max: int) -> np.ndarray:
+def _harmonic_shares(t: np.ndarray, v: np.ndarray, var: float, f: float, k_max: int, odd: bool = False) -> np.ndarray:
     """Share of the variance ``var`` of ``v`` (0..1) explained by a constant and the harmonics
-    1..K of ``f`` [Hz] on the times ``t``, for K = 1..``k_max`` (entry K − 1).
+    1..K of ``f`` [Hz] on the times ``t``, for K = 1..``k_max`` (entry K − 1); with ``odd`` the odd
+    harmonics 1, 3, …, K only, for odd K ≤ ``k_max`` (entry (K − 1)/2; :func:`half_wave_fundamental`).
 
     The columns X = [1, sin, cos of k·2π f t, k = 1..k_max], in that order, are orthogonalised in
     that order: with the Cholesky factor L of the Gram matrix XᵀX, the entries of L⁻¹Xᵀv are the
@@ -1310,24 +1317,25 @@ def _harmonic_shares(t: np.ndarray, v: np.ndarray, var: float, f: float, k_max: 
     orthogonal, so squaring the condition number costs nothing) in a quarter of the time, and
     :func:`periodic_motion` calls it a few hundred times per record (a third of a 10⁶-sample
     record's calibration)."""
-    X = np.empty((t.size, 2 * k_max + 1))
+    ks = range(1, k_max + 1, 2 if odd else 1)
+    X = np.empty((t.size, 2 * len(ks) + 1))
     X[:, 0] = 1.0
-    for k in range(1, k_max + 1):
-        X[:, 2 * k - 1] = np.sin(2 * np.pi * k * f * t)
-        X[:, 2 * k] = np.cos(2 * np.pi * k * f * t)
+    for j, k in enumerate(ks, start=1):
+        X[:, 2 * j - 1] = np.sin(2 * np.pi * k * f * t)
+        X[:, 2 * j] = np.cos(2 * np.pi * k * f * t)
     try:
         c2 = linalg.solve_triangular(np.linalg.cholesky(X.T @ X), X.T @ v, lower=True) ** 2
     except np.linalg.LinAlgError:
         # a singular Gram matrix (columns that coincide: never for ≥ 3 cycles below a quarter of the
         # sampling rate, as periodic_motion asks): one least-squares fit per K, the definition
         out = []
-        for k in range(1, k_max + 1):
-            coef, *_ = np.linalg.lstsq(X[:, : 2 * k + 1], v, rcond=None)
-            r = v - X[:, : 2 * k + 1] @ coef
+        for j in range(1, len(ks) + 1):
+            coef, *_ = np.linalg.lstsq(X[:, : 2 * j + 1], v, rcond=None)
+            r = v - X[:, : 2 * j + 1] @ coef
             out.append(1.0 - float(r @ r) / var)
         return np.array(out)
     vv = float(v @ v)
-    return np.array([1.0 - (vv - float(c2[: 2 * k + 1].sum())) / var for k in range(1, k_max + 1)])
+    return np.array([1.0 - (vv - float(c2[: 2 * j + 1].sum())) / var for j in range(1, len(ks) + 1)])
 
 
 def periodic_motion(prep: Prepared) -> tuple[float | None, float, int]:
@@ -1453,6 +1461,92 @@ def motion_harmonics(prep: Prepared, f_hz: float) -> int:
     return PHASE_HARMONICS
 
 
+def half_wave_fundamental(prep: Prepared, f_hz: float) -> tuple[float, int, float] | None:
+    """The motion's own fundamental [Hz], the number K of its harmonics the phase guard holds and the
+    share of the velocity's variance its odd harmonics 1, 3, …, K explain, when the periodic motion of
+    fundamental ``f_hz`` (:func:`periodic_motion`) is half-wave symmetric; else None.
+
+    Why (session 42). The rigid model is symmetric in the motion: inertia, viscous, Coulomb and
+    Stribeck friction change sign with the state ``(q − q_c, dq, ddq)``; its only even term, the
+    offset, is a constant. A half-wave symmetric motion — a sinusoid, a back-and-forth sweep with
+    equal speeds and dwells — maps that state onto its negative half a period later. So any error of
+    that model along the motion (a friction shape it lacks, an inertia biased by the encoder's noise
+    fed back through the velocity loop, sessions 14 and 16; a compliance, a delay, a symmetric play
+    or bristle) changes sign every half period: its Fourier series holds the odd harmonics of the
+    motion only. The even harmonics of the residual can come only from what breaks the symmetry —
+    gravity off its zero, direction-dependent friction, a position ripple, a disturbance: library
+    kinds, which compete for them by held-out prediction. The guard of session 18 held every
+    harmonic 1..K and so refused a gravity whose even part (``A·sin(θ_c + φ)·cos(θ − θ_c)``, the
+    ``cos 2ωt`` line) it could not take from the rigid model's error anyway: on the never-used
+    records of sessions 40–41, 20 of the 33 gravity records on sinusoids were missed or named as
+    asymmetric friction. Gravity centred on its zero is odd in ``θ − θ_c`` and still refused: on a
+    sinusoid it is the inertia and the third harmonic, which the rigid model's error can be.
+
+    The motion's own fundamental may be a multiple m = 1, 2, 3 of ``f_hz`` (:func:`periodic_motion`
+    can report a sub-harmonic: on a sinusoid of ≥ 6 cycles f/2 explains all that f does); the first m
+    whose odd harmonics 1..K (K ≤ :data:`PERIODIC_MAX_HARMONICS`, below a quarter of the rows'
+    sampling rate) explain ≥ :data:`PERIODIC_MIN_SHARE` of the velocity's variance — the same
+    definition as "periodic" — is taken, with the smallest such K, at least ``PHASE_HARMONICS``. On
+    the same rows as :func:`periodic_motion`.
+
+    Returns
+    -------
+    (float, int, float) or None
+        (fundamental [Hz], K, share 0..1) or None when no m's odd harmonics reach the share (the
+        velocity has even harmonics: unequal speeds or dwells; the guard then holds every harmonic).
+    """
+    step = max(int(prep.decim), 1)
+    t = prep.t[::step] - prep.t[0]
+    v = prep.dq[::step]
+    v0 = v - v.mean()
+    var = float(v0 @ v0)
+    if var <= 0 or not f_hz > 0:
+        return None
+    for m in (1, 2, 3):
+        f = m * f_hz
+        k_max = max(PHASE_HARMONICS, min(PERIODIC_MAX_HARMONICS, int(0.25 / (prep.dt_s * step * f))))
+        sh = _harmonic_shares(t, v, var, f, k_max, odd=True)
+        for j, share in enumerate(sh):
+            if share >= PERIODIC_MIN_SHARE:
+                return f, max(2 * j + 1, PHASE_HARMONICS), float(share)
+    return None
+
+
+#: |correlation| of gravity's odd column with the acceleration's above which the report says the two
+#: trade against each other (assumed: 0.9, "nearly collinear"; on a sinusoid it is ≈ 1, on the
+#: benchmark's back-and-forth sweeps far less — report text only, no decision reads it)
+GRAVITY_INERTIA_CORRELATION = 0.9
+
+
+def _gravity_on_symmetric_motion(prep: Prepared, fit: FitResult) -> str:
+    """The evidence sentence for a gravity accepted on a half-wave symmetric motion (session 42): the
+    part even about the motion's centre ``θc`` (``A·sin(θc + φ)`` [N·m]) is what no error of the
+    symmetric model can take; the odd part ``A·cos(θc + φ)`` is said to trade against the inertia
+    when its column ``sin(θ − θc)`` is correlated with the acceleration's by at least
+    :data:`GRAVITY_INERTIA_CORRELATION` (on a sinusoid ``θ̈ = −ω²(θ − θc)``). Empty otherwise."""
+    names, X = design(prep, fit.spec)
+    if not {"grav_sin", "grav_cos", "inertia"} <= set(names):
+        return ""
+    coef = dict(zip(fit.names, fit.coef))
+    s, c = float(coef["grav_sin"]), float(coef["grav_cos"])
+    qc = 0.5 * (float(np.max(prep.q)) + float(np.min(prep.q)))
+    even = s * math.sin(qc) + c * math.cos(qc)
+    odd = s * math.cos(qc) - c * math.sin(qc)
+    col = X[:, names.index("grav_sin")] * math.cos(qc) - X[:, names.index("grav_cos")] * math.sin(qc)
+    acc = X[:, names.index("inertia")]
+    if np.std(col) == 0 or np.std(acc) == 0:
+        return ""
+    r = abs(float(np.corrcoef(col, acc)[0, 1]))
+    text = (f" On this half-wave symmetric motion its part even about the motion's centre (θc = {qc:.4g} rad), "
+            f"A·sin(θc+φ) = {even:.4g} N·m at acceptance, is what no error of the symmetric model can take")
+    if r >= GRAVITY_INERTIA_CORRELATION:
+        text += (f"; its odd part, A·cos(θc+φ) = {odd:.4g} N·m at acceptance, has a column correlated {r:.3f} with the acceleration's, so it "
+                 "and the inertia trade against each other and A and φ rest on the record's small departures from that "
+                 "shape (session 42: A within 30 % on 15 of 20 such benchmark records, up to 2.4× off on the others). "
+                 "A record that also holds a non-sinusoidal motion (a staircase, a sweep) separates them")
+    return text + "."
+
+
 def time_shift_diagnostic(prep: Prepared, fit: FitResult) -> dict[str, float]:
     """How much of the residual a time shift between torque and motion explains.
 
@@ -1562,15 +1656,17 @@ def _ool_entry(kind: str, share: float, gain: float, z: float, shift_s: float | 
 
 
 def _gain_with_nuisance(prep: Prepared, cur: ModelSpec, cand: ModelSpec, nuisance: str, k_folds: int,
-                        phase_hz: float | None = None, phase_harmonics: int = PHASE_HARMONICS) -> tuple[float, float]:
+                        phase_hz: float | None = None, phase_harmonics: int = PHASE_HARMONICS,
+                        phase_odd: bool = False) -> tuple[float, float]:
     """:func:`cv_compare` of the current model and the candidate, both with the nuisance description
-    ``nuisance`` added (and ``phase_hz``, ``phase_harmonics`` set for ``"phase_function"``): (gain %, z)."""
-    return cv_compare(*_losses_with_nuisance(prep, cur, cand, nuisance, k_folds, phase_hz, phase_harmonics))
+    ``nuisance`` added (and ``phase_hz``, ``phase_harmonics``, ``phase_odd`` set for ``"phase_function"``):
+    (gain %, z)."""
+    return cv_compare(*_losses_with_nuisance(prep, cur, cand, nuisance, k_folds, phase_hz, phase_harmonics, phase_odd))
 
 
 def _losses_with_nuisance(prep: Prepared, cur: ModelSpec, cand: ModelSpec, nuisance: str, k_folds: int,
-                          phase_hz: float | None = None,
-                          phase_harmonics: int = PHASE_HARMONICS) -> tuple[CVErrors, CVErrors]:
+                          phase_hz: float | None = None, phase_harmonics: int = PHASE_HARMONICS,
+                          phase_odd: bool = False) -> tuple[CVErrors, CVErrors]:
     """:func:`cv_losses` of the current model and the candidate, both with ``nuisance`` added (see
     :func:`_gain_with_nuisance`)."""
     s0, s1 = cur.copy(), cand.copy()
@@ -1579,6 +1675,7 @@ def _losses_with_nuisance(prep: Prepared, cur: ModelSpec, cand: ModelSpec, nuisa
         if phase_hz is not None:
             sp.phase_hz = phase_hz
             sp.phase_harmonics = phase_harmonics
+            sp.phase_odd = phase_odd
     return cv_losses(prep, s0, k_folds), cv_losses(prep, s1, k_folds)
 
 
@@ -1684,16 +1781,24 @@ def run_loop(
                                     "is not in the record")})
     # the guard's harmonics: as many as the motion's velocity needs (session 25), at least PHASE_HARMONICS
     phase_k = motion_harmonics(prep, phase_hz) if phase_hz is not None else PHASE_HARMONICS
+    # the guard's lines: the odd harmonics of the motion's own fundamental on a half-wave symmetric motion
+    # (session 42), else every harmonic 1..phase_k of phase_hz
+    half_wave = half_wave_fundamental(prep, phase_hz) if (cfg.odd_phase_guard and phase_hz is not None) else None
+    guard_hz, guard_k = (half_wave[0], half_wave[1]) if half_wave is not None else (phase_hz, phase_k)
     t_span = float(prep.t[-1] - prep.t[0])
     # the count-alias test's runs and quantum, once per run (_count_alias)
     alias_runs, alias_q = constant_speed_runs(prep) if cfg.count_alias_guard else ([], None)
     if phase_hz is not None:
         # the lines themselves, so that a reader can check them against the motion: the fundamental can be a
         # sub-harmonic of the motion's own (session 33; periodic_motion's docstring)
-        lines = ", ".join(f"{k * phase_hz:.4g}" for k in range(1, phase_k + 1))
+        lines = ", ".join(f"{k * guard_hz:.4g}" for k in range(1, guard_k + 1, 2 if half_wave is not None else 1))
         log.append(f"periodic motion: {phase_k} harmonics of {phase_hz:.5g} Hz explain {100 * phase_share:.1f} % of the "
                    f"velocity; smooth position and time terms must also predict with them ({lines} Hz) in both models "
                    "(phase guard)")
+        if half_wave is not None:
+            log.append(f"the motion is half-wave symmetric (the odd harmonics 1..{guard_k} of {guard_hz:.5g} Hz explain "
+                       f"{100 * half_wave[2]:.1f} % of its velocity): the guard holds those, the only lines a model symmetric "
+                       "in the motion can err by; even harmonics are left to the symmetry-breaking kinds (session 42)")
     step = 0
     settled = False   # the last step found nothing more to add (its candidates were tested against the final model)
     while len(accepted) < cfg.max_effects and step < cfg.max_effects + 2:
@@ -1763,11 +1868,14 @@ def run_loop(
                     _undecided_periodic(undecided, c, step, why)
             if why is None and phase_hz is not None and c["kind"] in PHASE_GUARDED:
                 # a periodic motion: must still predict with any smooth function of its phase in both models
-                g, z = _gain_with_nuisance(prep, cur.spec, c["fit"].spec, "phase_function", cfg.k_folds, phase_hz=phase_hz,
-                                      phase_harmonics=phase_k)
+                g, z = _gain_with_nuisance(prep, cur.spec, c["fit"].spec, "phase_function", cfg.k_folds, phase_hz=guard_hz,
+                                      phase_harmonics=guard_k, phase_odd=half_wave is not None)
+                c["phase_gain"] = (g, z)
                 if not predicts(g, z, zc):
+                    held = (f"its odd harmonics 1..{guard_k} of {guard_hz:.4g} Hz (half-wave symmetric)" if half_wave is not None
+                            else "those harmonics")
                     why = (f"the motion is periodic ({phase_k} harmonics of {phase_hz:.4g} Hz explain "
-                           f"{100 * phase_share:.1f} % of the velocity) and with those harmonics in the model the term no "
+                           f"{100 * phase_share:.1f} % of the velocity) and with {held} in the model the term no "
                            f"longer predicts (gain {g:.2f} %, z = {z:.1f}): on this record it cannot be told apart from a "
                            "smooth error of the model along the motion's phase")
                     _undecided_periodic(undecided, c, step, why)
@@ -1785,8 +1893,20 @@ def run_loop(
             log.append(f"step {step}: no candidate passes")
             settled = True
             break
-        chosen = passing[0]
         lib = [c for c in passing if c["kind"] in EFFECT_KINDS]
+        if half_wave is not None and len(lib) > 1:
+            # a half-wave symmetric motion: the library candidates compete on their gain beyond the motion's
+            # odd harmonics (session 42) — the part of a gain that lies in them may be the model's own error
+            # (gravity's odd part shares the inertia's column on a sinusoid), the rest is each candidate's
+            # claim to the symmetry-breaking residual
+            for c in lib:
+                if "phase_gain" not in c:
+                    c["phase_gain"] = _gain_with_nuisance(prep, cur.spec, c["fit"].spec, "phase_function", cfg.k_folds,
+                                                          phase_hz=guard_hz, phase_harmonics=guard_k, phase_odd=True)
+            lib.sort(key=lambda c: -c["phase_gain"][0])
+            log.append(f"step {step}: half-wave symmetric motion, the library candidates ranked by their gain beyond its odd "
+                       "harmonics: " + "; ".join(f"{c['kind']} {c['phase_gain'][0]:.2f} % z={c['phase_gain'][1]:.1f}" for c in lib))
+        chosen = passing[0] if passing[0]["kind"] in OUT_OF_LIBRARY or not lib else lib[0]
         if chosen["kind"] in OUT_OF_LIBRARY and lib:
             # library first: an out-of-library description wins only if it predicts significantly
             # better than the best library candidate (same test, same level)
@@ -1825,6 +1945,12 @@ def run_loop(
             if "val_rms" in chosen:
                 val_cur = chosen["val_rms"]
             continue
+        symmetric_note = (_gravity_on_symmetric_motion(prep, f)
+                          if (half_wave is not None and chosen["kind"] == "gravity_imbalance") else "")
+        if half_wave is not None and len(lib) > 1 and chosen is lib[0]:
+            symmetric_note += (" On this half-wave symmetric motion the library candidates competed on their gain beyond its odd "
+                      "harmonics: " + "; ".join(f"{c['kind']} {c['phase_gain'][0]:.1f} % (z = {c['phase_gain'][1]:.1f})" for c in lib)
+                      + ".")
         ev = (f"{chosen['evidence'][0].upper()}{chosen['evidence'][1:]}. Predicts held-out time blocks better: the "
               f"cross-validated mean squared error falls by {chosen['cv_gain_pct']:.1f} % (z = {chosen['cv_z']:.1f}); it explains "
               f"{chosen['explained_pct']:.1f} % of the residual variance."
@@ -1839,7 +1965,8 @@ def run_loop(
               + (f" Its direction-dependent viscous friction predicts better than a symmetric one with the Coulomb level "
                  f"split (gain {chosen['gain_over_coulomb_split_pct']:.1f} %, z = {chosen['z_over_coulomb_split']:.1f})."
                  if "gain_over_coulomb_split_pct" in chosen else "")
-              + (f" {chosen['travel_friction_note']}" if "travel_friction_note" in chosen else ""))
+              + (f" {chosen['travel_friction_note']}" if "travel_friction_note" in chosen else "")
+              + symmetric_note)
         acc = AcceptedEffect(kind=chosen["kind"], slot=chosen["slot"], rms_after=f.rms, variance_explained_pct=chosen["explained_pct"],
                              delta_bic=chosen["delta_bic"], evidence=ev, val_rms_after=chosen.get("val_rms"),
                              cv_gain_pct=chosen["cv_gain_pct"], cv_z=chosen["cv_z"], competitors=comps)
