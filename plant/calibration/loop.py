@@ -1338,6 +1338,24 @@ def _harmonic_shares(t: np.ndarray, v: np.ndarray, var: float, f: float, k_max: 
     return np.array([1.0 - (vv - float(c2[: 2 * j + 1].sum())) / var for j in range(1, len(ks) + 1)])
 
 
+def _velocity_rows(prep: Prepared) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
+    """The rows the periodic-motion functions read: evenly spaced, unfiltered full-rate rows, one per
+    decimation step (the decimated time base ``t_dec`` passed through the decimation filter, which
+    bends it at the ends). Returns (times from 0 [s], velocity, velocity minus its mean, its sum of
+    squares, the rows' spacing [s]); shapes (n,)."""
+    step = max(int(prep.decim), 1)
+    t = prep.t[::step] - prep.t[0]
+    v = prep.dq[::step]
+    v0 = v - v.mean()
+    return t, v, v0, float(v0 @ v0), prep.dt_s * step
+
+
+def _guard_harmonics_max(dt_rows_s: float, f_hz: float) -> int:
+    """The most harmonics of ``f_hz`` the phase guard may use on rows ``dt_rows_s`` apart: below a
+    quarter of their sampling rate, within ``PHASE_HARMONICS`` … :data:`PERIODIC_MAX_HARMONICS`."""
+    return max(PHASE_HARMONICS, min(PERIODIC_MAX_HARMONICS, int(0.25 / (dt_rows_s * f_hz))))
+
+
 def periodic_motion(prep: Prepared) -> tuple[float | None, float, int]:
     """The fundamental [Hz] of a periodic motion, or None; the share of the velocity's variance its
     harmonics explain (0..1); and the number K of harmonics that reach it.
@@ -1372,20 +1390,14 @@ def periodic_motion(prep: Prepared) -> tuple[float | None, float, int]:
         :data:`PERIODIC_MAX_HARMONICS` harmonics or as many as fit below the limit); K (if not
         periodic: ``PHASE_HARMONICS``).
     """
-    # evenly spaced, unfiltered times: the full-rate rows, one per decimation step (the decimated
-    # time base t_dec passed through the decimation filter, which bends it at the ends)
-    step = max(int(prep.decim), 1)
-    t = prep.t[::step] - prep.t[0]
-    v = prep.dq[::step]
+    t, v, v0, var, dt_rows = _velocity_rows(prep)
     n = t.size
     if n < 16 or t[-1] <= 0:
         return None, 0.0, PHASE_HARMONICS
-    v0 = v - v.mean()
-    var = float(v0 @ v0)
     if var <= 0:
         return None, 0.0, PHASE_HARMONICS
-    fs = 1.0 / (prep.dt_s * step)
-    freqs = np.fft.rfftfreq(n, d=prep.dt_s * step)
+    fs = 1.0 / dt_rows
+    freqs = np.fft.rfftfreq(n, d=dt_rows)
     spec = np.abs(np.fft.rfft(v0 * np.hanning(n)))
     # (3 % slack: a record of exactly three periods is periodic; the grid below is ±3 % wide)
     min_cycles = 0.97 * PERIODIC_MIN_CYCLES
@@ -1446,12 +1458,8 @@ def motion_harmonics(prep: Prepared, f_hz: float) -> int:
     :func:`periodic_motion` finds it; else ``PHASE_HARMONICS``. The model's error along the phase is
     a function of the motion's state, at the least of its velocity: as many harmonics as the
     velocity needs are needed to describe it (session 25)."""
-    step = max(int(prep.decim), 1)
-    t = prep.t[::step] - prep.t[0]
-    v = prep.dq[::step]
-    v0 = v - v.mean()
-    var = float(v0 @ v0)
-    k_max = max(PHASE_HARMONICS, min(PERIODIC_MAX_HARMONICS, int(0.25 / (prep.dt_s * step * f_hz))))
+    t, v, _, var, dt_rows = _velocity_rows(prep)
+    k_max = _guard_harmonics_max(dt_rows, f_hz)
     if var <= 0:
         return PHASE_HARMONICS
     sh = _harmonic_shares(t, v, var, f_hz, k_max)
@@ -1495,17 +1503,12 @@ def half_wave_fundamental(prep: Prepared, f_hz: float) -> tuple[float, int, floa
         (fundamental [Hz], K, share 0..1) or None when no m's odd harmonics reach the share (the
         velocity has even harmonics: unequal speeds or dwells; the guard then holds every harmonic).
     """
-    step = max(int(prep.decim), 1)
-    t = prep.t[::step] - prep.t[0]
-    v = prep.dq[::step]
-    v0 = v - v.mean()
-    var = float(v0 @ v0)
+    t, v, _, var, dt_rows = _velocity_rows(prep)
     if var <= 0 or not f_hz > 0:
         return None
     for m in (1, 2, 3):
         f = m * f_hz
-        k_max = max(PHASE_HARMONICS, min(PERIODIC_MAX_HARMONICS, int(0.25 / (prep.dt_s * step * f))))
-        sh = _harmonic_shares(t, v, var, f, k_max, odd=True)
+        sh = _harmonic_shares(t, v, var, f, _guard_harmonics_max(dt_rows, f), odd=True)
         for j, share in enumerate(sh):
             if share >= PERIODIC_MIN_SHARE:
                 return f, max(2 * j + 1, PHASE_HARMONICS), float(share)
