@@ -1,6 +1,8 @@
+"""Session 43 probe: session 24's runner keeping the log lines of the own-share probe (`own_share_probe.diff`
+applied to the loop). Usage (from the tree whose loop is to be run): python own_share_probe_runner.py OUT.json GEN:LO-HI ..."""
 import json, os, sys, pathlib
 sys.path.insert(0, os.getcwd())
-T = pathlib.Path('/work/main/data/calibration_benchmark')
+T = pathlib.Path(__file__).resolve().parents[1]   # data/calibration_benchmark
 sys.path.insert(0, str(T / 'session25_sweep_guard')); sys.path.insert(0, str(T / 'tools'))
 from jobs import map_jobs, seed_jobs
 import runner as base
