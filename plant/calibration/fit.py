@@ -87,6 +87,9 @@ class Prepared:
         The baseline's Coulomb column: ``sign(dq)``, ramped across the full-rate samples at rest by
         the standstill rule of :func:`prepare` (:func:`stick_ramp`); None when standstill samples
         are kept (EMPS), where it is ``sign(dq)``.
+    hunting : list of (float, float)
+        Start and end [s] of the stretches left out as hunting (:func:`hunting_mask`); empty when
+        none or when standstill samples are kept.
     """
 
     record: Record
@@ -107,6 +110,7 @@ class Prepared:
     position_resolution: float = 0.0
     coulomb: np.ndarray | None = None
     rest_mask: np.ndarray | None = None
+    hunting: list[tuple[float, float]] = dataclasses.field(default_factory=list)
 
     def dec(self, x: np.ndarray) -> np.ndarray:
         """Decimate full-rate column(s) (axis 0) like Matlab ``decimate`` (IIR, zero phase) and keep
@@ -171,6 +175,7 @@ def prepare(
     n_border: int = N_BORDER,
     exclude_standstill: bool | None = None,
     standstill_frac: float = 0.02,
+    exclude_hunting: bool = True,
 ) -> Prepared:
     """Filter, differentiate and set up the decimation for a record.
 
@@ -203,6 +208,10 @@ def prepare(
         (:func:`filter_reach`), before the decimation filter (``Prepared.rest_mask``), and the
         decimated samples there are dropped: the error at rest would otherwise spread over the
         coarse filter's reach into the moving samples (docs/calibration.md, "Session 28").
+    exclude_hunting : bool
+        With ``exclude_standstill``, also drop the decimated samples on stretches where the
+        velocity loop hunts in stick-slip at one commanded speed (:func:`hunting_mask`; listed in
+        ``Prepared.hunting`` and in the loop's log). Default True (session 44).
 
     Raises
     ------
@@ -251,6 +260,7 @@ def prepare(
     n_still = 0
     coulomb = None
     rest_mask = None
+    hunting: list[tuple[float, float]] = []
     if exclude_standstill:
         v_still = standstill_frac * float(np.percentile(np.abs(dq_dec), 95))
         rest = np.abs(dq) < v_still
@@ -270,6 +280,13 @@ def prepare(
             rest_mask = moving.astype(float)
             y_dec = _decimate(y * rest_mask, decimate)
             mask &= moving[_decimation_start(moving.size, decimate)::decimate]
+        if exclude_hunting:
+            # stick-slip stretches left out like rests (hunting_mask, session 44)
+            hunt = hunting_mask(t_dec, dq_dec, v_still)
+            if hunt.any():
+                mask &= ~hunt
+                edges = np.flatnonzero(np.diff(np.r_[0, hunt.astype(np.int8), 0]))
+                hunting = [(float(t_dec[a]), float(t_dec[b - 1])) for a, b in zip(edges[::2], edges[1::2])]
         n_still = int((~mask).sum())
         if n_still:
             keep = np.flatnonzero(mask)
@@ -277,8 +294,70 @@ def prepare(
     return Prepared(
         record=record, t=t, q=q, dq=dq, ddq=ddq, y=y, dt_s=dt, decim=decimate, cutoff_hz=cutoff_hz,
         t_dec=t_dec, q_dec=q_dec, dq_dec=dq_dec, y_dec=y_dec, keep=keep, n_standstill=n_still,
-        position_resolution=resolution, coulomb=coulomb, rest_mask=rest_mask,
+        position_resolution=resolution, coulomb=coulomb, rest_mask=rest_mask, hunting=hunting,
     )
+
+
+#: Hunting detector (:func:`hunting_mask`, session 44). All four numbers are assumed, none fitted: the
+#: window holds several stick-slip cycles of the slow stairs seen on both generators (0.2–1 s) and is
+#: shorter than a staircase's plateau (≥ 5 s); the smoothing separates a stick-slip cycle from a
+#: commanded speed change; "more than half the speed" is session 43's hunting definition (velocity
+#: std > 0.5 × commanded speed), where a plateau's measured spread is bimodal (< 0.3 or > 0.5 on the
+#: blind staircases of 13660–13899); a commanded speed is "one speed" within a factor 2 over the window.
+HUNTING_WINDOW_S = 2.0
+HUNTING_SMOOTH_S = 0.5
+HUNTING_SPREAD_MIN = 0.5
+HUNTING_CONST_RATIO = 0.5
+
+
+def hunting_mask(t: np.ndarray, w: np.ndarray, v_still: float) -> np.ndarray:
+    """Samples on stretches where the velocity loop hunts (stick-slip) at one commanded speed.
+
+    A sample is on such a stretch when a window of :data:`HUNTING_WINDOW_S` around it (or around a
+    sample within half a window) has (1) one speed: the velocity smoothed over
+    :data:`HUNTING_SMOOTH_S` keeps its sign and stays within a factor 1/:data:`HUNTING_CONST_RATIO`,
+    (2) motion: its mean magnitude above the standstill threshold, and (3) hunting: the velocity's
+    part faster than the smoothing has an rms above :data:`HUNTING_SPREAD_MIN` × that mean.
+
+    Why (session 44, docs/calibration.md): on a slow stair below the Stribeck velocity the axis
+    sticks and slips. The torque there follows the friction's dynamics at breakaway (bristle state,
+    frictional lag), which neither the baseline nor a library kind holds, and the fit spends
+    effects on it — on the blind generator's staircases a pre-sliding named for a residual spread
+    over the whole record (session 43: baseline residual mostly on such plateaus → 7 of 8 records
+    wrong, 5 with a false pre-sliding). The stretches are left out of the fit like a rest.
+
+    Parameters
+    ----------
+    t : ndarray, shape (M,)
+        Evenly spaced decimated times [s] (before any sample is dropped).
+    w : ndarray, shape (M,)
+        Decimated velocity [rad/s or m/s].
+    v_still : float
+        Standstill threshold [same unit as ``w``] (:func:`prepare`).
+
+    Returns
+    -------
+    ndarray of bool, shape (M,)
+        True on hunting stretches.
+    """
+    from scipy.ndimage import maximum_filter1d, minimum_filter1d, uniform_filter1d
+    if t.size < 10:
+        return np.zeros(t.size, bool)
+    dt = float(np.median(np.diff(t)))
+    ns = max(3, int(round(HUNTING_SMOOTH_S / dt)) | 1)
+    nw = max(5, int(round(HUNTING_WINDOW_S / dt)) | 1)
+    if nw > t.size:
+        return np.zeros(t.size, bool)
+    sm = uniform_filter1d(w, ns, mode="nearest")
+    fast = w - sm
+    mean = np.abs(uniform_filter1d(sm, nw, mode="nearest"))
+    rms = np.sqrt(np.maximum(uniform_filter1d(fast**2, nw, mode="nearest"), 0.0))
+    smax = maximum_filter1d(sm, nw, mode="nearest")
+    smin = minimum_filter1d(sm, nw, mode="nearest")
+    one_speed = (smin * smax > 0) & (np.minimum(np.abs(smin), np.abs(smax))
+                                     >= HUNTING_CONST_RATIO * np.maximum(np.abs(smin), np.abs(smax)))
+    centre = one_speed & (mean > v_still) & (rms > HUNTING_SPREAD_MIN * mean)
+    return maximum_filter1d(centre.astype(np.uint8), nw, mode="constant").astype(bool)
 
 
 def filter_reach(b: np.ndarray, a: np.ndarray, energy: float = 0.999) -> int:

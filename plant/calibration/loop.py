@@ -1759,6 +1759,9 @@ def run_loop(
     log: list[str] = []
     base, stribeck = fit_baseline(prep, cfg)
     log.append(f"baseline: rms {base.rms:.4g}, rel. error {base.relative_error_pct:.3f} %, Stribeck: {stribeck.get('reason', '')}")
+    if prep.hunting:
+        log.append(f"hunting: the velocity hunts (stick-slip at one speed) on {len(prep.hunting)} stretch(es), left out of the fit "
+                   "like rests: " + ", ".join(f"{a:.1f}-{b:.1f} s" for a, b in prep.hunting))
     cur = base
     val_cur = val_before = vb = None
     if prep_val is not None:
