@@ -282,7 +282,7 @@ def prepare(
             mask &= moving[_decimation_start(moving.size, decimate)::decimate]
         if exclude_hunting:
             # stick-slip stretches left out like rests (hunting_mask, session 44)
-            hunt = hunting_mask(t_dec, dq_dec, v_still)
+            hunt = hunting_mask(t_dec, dq_dec, v_still, resolution)
             if hunt.any():
                 mask &= ~hunt
                 edges = np.flatnonzero(np.diff(np.r_[0, hunt.astype(np.int8), 0]))
@@ -298,33 +298,49 @@ def prepare(
     )
 
 
-#: Hunting detector (:func:`hunting_mask`, session 44). All four numbers are assumed, none fitted: the
+#: Hunting detector (:func:`hunting_mask`, session 44). The numbers are assumed, none fitted: the
 #: window holds several stick-slip cycles of the slow stairs seen on both generators (0.2–1 s) and is
-#: shorter than a staircase's plateau (≥ 5 s); the smoothing separates a stick-slip cycle from a
-#: commanded speed change; "more than half the speed" is session 43's hunting definition (velocity
-#: std > 0.5 × commanded speed), where a plateau's measured spread is bimodal (< 0.3 or > 0.5 on the
-#: blind staircases of 13660–13899); a commanded speed is "one speed" within a factor 2 over the window.
+#: shorter than a staircase's plateau (≥ 5 s); the smoothing averages a stick-slip cycle into its
+#: commanded speed and still tells a speed step; "more than half the speed" is session 43's hunting
+#: definition (velocity std > 0.5 × commanded speed), where a plateau's measured spread is bimodal
+#: (< 0.3 or > 0.5 on the blind staircases of 13660–13899); one speed is one within a factor 2 over
+#: the window; a stick is a velocity under a quarter of the speed on a fifth of the window, which
+#: white Gaussian velocity noise of any rms reaches on at most 12.1 % of the samples (at rms ≈ the
+#: speed: Φ(−0.75) − Φ(−1.25)); motion is a travel of 20 position quanta over the window.
 HUNTING_WINDOW_S = 2.0
-HUNTING_SMOOTH_S = 0.5
+HUNTING_SMOOTH_S = 1.0
 HUNTING_SPREAD_MIN = 0.5
 HUNTING_CONST_RATIO = 0.5
+HUNTING_STICK_SPEED = 0.25
+HUNTING_STICK_SHARE = 0.2
+HUNTING_MIN_QUANTA = 20
 
 
-def hunting_mask(t: np.ndarray, w: np.ndarray, v_still: float) -> np.ndarray:
-    """Samples on stretches where the velocity loop hunts (stick-slip) at one commanded speed.
+def hunting_mask(t: np.ndarray, w: np.ndarray, v_still: float, resolution: float = 0.0) -> np.ndarray:
+    """Samples on stretches where the axis sticks and slips (the velocity loop hunts) at one
+    commanded speed.
 
     A sample is on such a stretch when a window of :data:`HUNTING_WINDOW_S` around it (or around a
-    sample within half a window) has (1) one speed: the velocity smoothed over
-    :data:`HUNTING_SMOOTH_S` keeps its sign and stays within a factor 1/:data:`HUNTING_CONST_RATIO`,
-    (2) motion: its mean magnitude above the standstill threshold, and (3) hunting: the velocity's
-    part faster than the smoothing has an rms above :data:`HUNTING_SPREAD_MIN` × that mean.
+    sample within half a window) shows
+
+    1. one speed: the velocity averaged over :data:`HUNTING_SMOOTH_S` keeps its sign and stays
+       within a factor 1/:data:`HUNTING_CONST_RATIO`;
+    2. motion: that speed carries the axis over :data:`HUNTING_MIN_QUANTA` position quanta in the
+       window (above ``v_still`` when the position is not quantised) — a slow stair whose samples
+       are mostly at rest still counts, its slip bursts are what the fit would see;
+    3. spread: the velocity's part faster than the averaging has an rms above
+       :data:`HUNTING_SPREAD_MIN` × the speed;
+    4. sticking: the velocity stays under :data:`HUNTING_STICK_SPEED` × the speed on at least
+       :data:`HUNTING_STICK_SHARE` of the window (noise alone, or a ripple that does not stop the
+       axis, does not hunt).
 
     Why (session 44, docs/calibration.md): on a slow stair below the Stribeck velocity the axis
-    sticks and slips. The torque there follows the friction's dynamics at breakaway (bristle state,
-    frictional lag), which neither the baseline nor a library kind holds, and the fit spends
-    effects on it — on the blind generator's staircases a pre-sliding named for a residual spread
-    over the whole record (session 43: baseline residual mostly on such plateaus → 7 of 8 records
-    wrong, 5 with a false pre-sliding). The stretches are left out of the fit like a rest.
+    sticks and slips. The torque of a slip burst follows the friction's dynamics at breakaway
+    (bristle state, frictional lag, the drive's spring), which neither the baseline nor a library
+    kind holds, and the fit spends effects on it — on the blind generator's staircases a pre-sliding
+    named for a residual spread over the whole record (session 43: baseline residual mostly on such
+    plateaus → 7 of 8 records wrong, 5 with a false pre-sliding). The stretches are left out of the
+    fit like a rest, where the friction is equally undetermined.
 
     Parameters
     ----------
@@ -334,6 +350,8 @@ def hunting_mask(t: np.ndarray, w: np.ndarray, v_still: float) -> np.ndarray:
         Decimated velocity [rad/s or m/s].
     v_still : float
         Standstill threshold [same unit as ``w``] (:func:`prepare`).
+    resolution : float
+        Position quantum [rad or m] (``Prepared.position_resolution``); 0 if not quantised.
 
     Returns
     -------
@@ -349,14 +367,21 @@ def hunting_mask(t: np.ndarray, w: np.ndarray, v_still: float) -> np.ndarray:
     if nw > t.size:
         return np.zeros(t.size, bool)
     sm = uniform_filter1d(w, ns, mode="nearest")
-    fast = w - sm
-    mean = np.abs(uniform_filter1d(sm, nw, mode="nearest"))
-    rms = np.sqrt(np.maximum(uniform_filter1d(fast**2, nw, mode="nearest"), 0.0))
+    speed = np.abs(uniform_filter1d(sm, nw, mode="nearest"))
+    rms = np.sqrt(np.maximum(uniform_filter1d((w - sm) ** 2, nw, mode="nearest"), 0.0))
     smax = maximum_filter1d(sm, nw, mode="nearest")
     smin = minimum_filter1d(sm, nw, mode="nearest")
     one_speed = (smin * smax > 0) & (np.minimum(np.abs(smin), np.abs(smax))
                                      >= HUNTING_CONST_RATIO * np.maximum(np.abs(smin), np.abs(smax)))
-    centre = one_speed & (mean > v_still) & (rms > HUNTING_SPREAD_MIN * mean)
+    v_move = HUNTING_MIN_QUANTA * resolution / HUNTING_WINDOW_S if resolution > 0 else v_still
+    # the stick share against each window's own speed: the share of |w| < c·speed_i over window i
+    # equals the window's mean of 1[|w_j| < c·speed_i]; evaluated on the candidate windows only
+    centre = one_speed & (speed > v_move) & (rms > HUNTING_SPREAD_MIN * speed)
+    half = nw // 2
+    for i in np.flatnonzero(centre):
+        seg = w[max(0, i - half): i + half + 1]
+        if np.mean(np.abs(seg) < HUNTING_STICK_SPEED * speed[i]) < HUNTING_STICK_SHARE:
+            centre[i] = False
     return maximum_filter1d(centre.astype(np.uint8), nw, mode="constant").astype(bool)
 
 

@@ -48,8 +48,9 @@ def one(job):
     prep = F.prepare(cio.load_record(str(d / "rec.csv")))
     t = F._decimate_times(prep.t, prep.decim); w = F._decimate(prep.dq, prep.decim)
     v_still = 0.02 * float(np.percentile(np.abs(w), 95))
-    flag = (detect_b(t, F._decimate(prep.q, prep.decim), w, v_still, prep.position_resolution, window_s=P["window_s"])
+    flag = (F.hunting_mask(t, w, v_still, prep.position_resolution) if os.environ.get("VF") else detect_b(t, F._decimate(prep.q, prep.decim), w, v_still, prep.position_resolution, window_s=P["window_s"])
             if os.environ.get("VB") else detect(t, w, v_still, **P))
+    # VF=1: the committed plant.calibration.fit.hunting_mask; VB=1: variant B (dropped); else variant A (first try)
     moving = np.abs(w) >= v_still
     out = {"gen": gen, "seed": seed, "traj": r.meta.get("trajectory"), "hidden": list(r.hidden),
            "flag_share": float((flag & moving).sum() / max(moving.sum(), 1)),
