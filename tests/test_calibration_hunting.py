@@ -102,3 +102,22 @@ def test_a_stick_slip_velocity_is_flagged():
     t = np.arange(0, 20, 0.01)
     w = np.where((t % 0.3) < 0.1, 3.0, 0.0)
     assert hunting_mask(t, w, v_still=0.02).mean() > 0.9
+
+
+def test_the_report_names_the_stretches_left_out(tmp_path):
+    """``calibrate`` (through a CSV, as a user runs it) lists the hunting stretches in report.json's
+    preprocessing and in report.md, so an engineer sees which part of the log the fit did not use."""
+    import json
+
+    from plant.calibration.report import calibrate
+
+    rec = _spring_block(fs_excess=0.1)
+    path = tmp_path / "spring_block.csv"
+    np.savetxt(path, np.column_stack([rec.t_s, rec.torque, rec.position]), delimiter=",",
+               header="time_s,torque_nm,position_rad", comments="")
+    calibrate(path, tmp_path / "out", plots=False)
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    spans = report["preprocessing"]["hunting_s"]
+    assert spans and all(8.0 <= a < b <= 32.0 for a, b in spans), spans
+    assert "Hunting: the axis sticks and slips" in (tmp_path / "out" / "report.md").read_text()
+    assert any(line.startswith("hunting:") for line in report["log"])

@@ -350,6 +350,8 @@ def calibrate(
         "preprocessing": {
             "butterworth_order": 4, "cutoff_hz": prep.cutoff_hz, "decimation": prep.decim,
             "n_samples_fit": int(prep.y_dec.size), "n_eff_baseline": result.baseline.n_eff,
+            # stretches where the axis sticks and slips at one speed, left out of the fit (session 44)
+            "hunting_s": [[float(a), float(b)] for a, b in prep.hunting],
         },
         "log": result.log,
     }
@@ -402,6 +404,12 @@ def _markdown(r: dict[str, Any]) -> str:
     L += ["", f"rms {r['baseline']['rms']:.4g} {u['torque']}, relative error {r['baseline']['relative_error_pct']:.3f} % "
           "(‖y−ŷ‖/‖y‖ on the decimated samples, the EMPS benchmark's definition).", ""]
     L += [f"Stribeck term: {'included' if r['stribeck'].get('included') else 'not included'} — {r['stribeck'].get('reason', '')}.", ""]
+    hunting = r["preprocessing"].get("hunting_s") or []
+    if hunting:
+        spans = ", ".join(f"{a:.1f}–{b:.1f} s" for a, b in hunting)
+        L += [f"Hunting: the axis sticks and slips at one commanded speed on {spans} "
+              f"({sum(b - a for a, b in hunting):.1f} s); these samples are left out of the fit like rests "
+              "(docs/calibration.md, \"Session 44\").", ""]
     L += ["## Effects added (in order)", ""]
     if not r["effects"]:
         L += ["None: no candidate passed the significance rule.", ""]
