@@ -300,7 +300,7 @@ def prepare(
 
 #: Hunting detector (:func:`hunting_mask`, session 44). The numbers are assumed, none fitted: the
 #: window holds several stick-slip cycles of the slow stairs seen on both generators (0.2–1 s) and is
-#: shorter than a staircase's plateau (≥ 5 s); the smoothing averages a stick-slip cycle into its
+#: a sixth of the blind generator's staircase plateaus (12–14 s); the smoothing averages a stick-slip cycle into its
 #: commanded speed and still tells a speed step; "more than half the speed" is session 43's hunting
 #: definition (velocity std > 0.5 × commanded speed), where a plateau's measured spread is bimodal
 #: (< 0.3 or > 0.5 on the blind staircases of 13660–13899); one speed is one within a factor 2 over
