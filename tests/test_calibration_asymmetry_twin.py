@@ -14,6 +14,7 @@ go through the phase guard (``loop.PHASE_GUARDED``).
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -108,16 +109,26 @@ def test_split_coulomb_gain_is_not_named_asymmetric(tmp_path, monkeypatch):
 def test_phase_guard_refuses_a_pre_sliding_the_motions_harmonics_describe(tmp_path, monkeypatch):
     """Development record 1040 (gravity on a sinusoid; the case that led to the rule): without
     the phase guard for reversal kinds an extra pre-sliding is named after the gravity; with it
-    the pre-sliding is refused with the phase reason and the gravity stays."""
+    the pre-sliding is refused with the phase reason and the gravity stays.
+
+    The guard is checked on its own, with session 45's reversal-stick rule switched off: the axis of
+    this record sticks at its reversals, so that rule refuses the same pre-sliding first (checked
+    last, with every rule on)."""
     r = make_record(1040)
     assert list(r.hidden) == ["gravity_imbalance"] and r.meta["trajectory"] == "sinusoid"
     path = tmp_path / "rec_1040.csv"
     r.write_csv(path)
     prep = prepare(load_record(path))
+    monkeypatch.setattr(loop, "STICK_SWING_OVER_FC", math.inf)
     monkeypatch.setattr(loop, "PHASE_GUARDED", loop.PHASE_GUARDED - loop.REVERSAL_KINDS)
     without = {a.kind for a in loop.run_loop(prep).accepted}
     assert without == {"gravity_imbalance", "presliding"}, "precondition: without the guard the extra term is named"
-    monkeypatch.undo()
+    monkeypatch.setattr(loop, "PHASE_GUARDED", loop.PHASE_GUARDED | loop.REVERSAL_KINDS)
     out = loop.run_loop(prep)
     assert {a.kind for a in out.accepted} == {"gravity_imbalance"}
     assert any(x["kind"] == "presliding" and "the motion is periodic" in x["reason"] for x in out.rejected)
+    monkeypatch.undo()
+    out = loop.run_loop(prep)
+    assert {a.kind for a in out.accepted} == {"gravity_imbalance"}
+    assert any(x["kind"] == "presliding" and ("the motion is periodic" in x["reason"] or "sticks at its reversals" in x["reason"])
+               for x in out.rejected)

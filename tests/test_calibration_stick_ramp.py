@@ -7,10 +7,12 @@ took it as evidence. :func:`plant.calibration.fit.stick_ramp` replaces each rest
 line between the sliding values around it.
 """
 
+import math
+
 import numpy as np
 import pytest
 
-from plant.calibration import fit
+from plant.calibration import fit, loop
 from plant.calibration.bench_records import make_record
 from plant.calibration.io import load_record
 from plant.calibration.loop import run_loop
@@ -69,9 +71,12 @@ def test_clean_records_whose_rest_error_rang_get_no_effect(seed, monkeypatch, tm
     pre-sliding from that ringing. With the ramp nothing is named; with ``sign`` at rest (the old
     column, patched in) the effect comes back, so the check can fail. The control runs without the
     hunting rule (session 44): on 1005 a slow stair sticks and slips at 3.9–6.4 s, and leaving it out
-    removes the backlash as well, so with the rule on the control could not tell the ramp's work."""
+    removes the backlash as well, so with the rule on the control could not tell the ramp's work. For
+    the same reason the control runs without session 45's reversal-stick rule: on 1006 the axis sticks
+    at its reversals and that rule refuses the ringing's pre-sliding as well."""
     path = tmp_path / "rec.csv"
     make_record(seed).write_csv(path)        # through the CSV, as `calibrate` reads it
     assert _named(path) == []
     monkeypatch.setattr(fit, "stick_ramp", lambda c, rest: np.array(c, dtype=float))
+    monkeypatch.setattr(loop, "STICK_SWING_OVER_FC", math.inf)
     assert _named(path, exclude_hunting=False) != []

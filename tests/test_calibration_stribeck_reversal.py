@@ -59,11 +59,17 @@ def _sweep_record(sigma0_nm_rad: float | None = None, seed: int = 0) -> Record:
     return Record(name="stribeck_sweep", t_s=t, position=np.floor(q * cpr) / cpr, torque=tau)
 
 
-def test_stribeck_friction_without_bristles_names_no_reversal_effect():
+def test_stribeck_friction_without_bristles_names_no_reversal_effect(monkeypatch):
     """Main named pre-sliding here (39.7 %, z 5.5); with the Stribeck term in both models its gain is
-    no longer significant, and the report says why."""
-    res = loop.run_loop(prepare(_sweep_record()))
+    no longer significant, and the report says why. The axis sticks at its reversals too, so session
+    45's reversal-stick rule refuses the same pre-sliding first: the Stribeck rule is checked with it
+    switched off, the loop's outcome with every rule on."""
+    prep = prepare(_sweep_record())
+    res = loop.run_loop(prep)
     assert not res.stribeck["included"], res.log   # the baseline left the term out: the case at hand
+    assert not {a.kind for a in res.accepted} & loop.REVERSAL_KINDS, res.log
+    monkeypatch.setattr(loop, "STICK_SWING_OVER_FC", math.inf)
+    res = loop.run_loop(prep)
     assert not {a.kind for a in res.accepted} & loop.REVERSAL_KINDS, res.log
     why = [r["reason"] for r in res.rejected if r["kind"] == "presliding" and "Stribeck term" in str(r["reason"])]
     assert why, res.rejected
@@ -91,18 +97,23 @@ def test_never_used_clean_seed_8263_names_nothing(tmp_path):
     assert [e["kind"] for e in rep["effects"]] == [], rep["log"]
 
 
-def test_fixed_seed_23_stribeck_velocity_rechosen_once_the_line_is_in_the_model(tmp_path):
+def test_fixed_seed_23_stribeck_velocity_rechosen_once_the_line_is_in_the_model(tmp_path, monkeypatch):
     """Session 35: the rule also runs when the model has the Stribeck term and a re-chosen ``vs``
     fits the current model better. Fixed seed 23 (a 6.6 N·m time line on a tracking run, one
     reversal): the baseline chose ``vs = 0.032`` against a residual the line then explained; main
     named an extra pre-sliding (5.1 %, z 4.9) beside the line. With ``vs`` re-chosen on the model
-    with the line (the generator's 0.0115) the pre-sliding no longer predicts, and the refusal says so."""
+    with the line (the generator's 0.0115) the pre-sliding no longer predicts, and the refusal says so.
+    Checked with session 45's reversal-stick rule switched off (the axis sticks at its reversal, so
+    that rule refuses the pre-sliding first); with every rule on the named set is the same."""
     from plant.calibration import bench_records
     from plant.calibration.report import calibrate
 
     r = bench_records.make_record(23)
     assert r.hidden == ("time_periodic",)
     r.write_csv(tmp_path / "rec.csv")
+    rep = calibrate(str(tmp_path / "rec.csv"), str(tmp_path / "on"), plots=False)
+    assert [e["kind"] for e in rep["effects"]] == ["time_periodic"], rep["log"]
+    monkeypatch.setattr(loop, "STICK_SWING_OVER_FC", math.inf)
     rep = calibrate(str(tmp_path / "rec.csv"), str(tmp_path / "out"), plots=False)
     assert rep["stribeck"]["included"], rep["log"]   # the case at hand: the model has the term
     assert [e["kind"] for e in rep["effects"]] == ["time_periodic"], rep["log"]

@@ -432,6 +432,40 @@ def _resolved(fit: FitResult, resolution: float = 0.0) -> str | None:
     return None
 
 
+#: :func:`_sticks_at_reversals` (session 45), assumed, not fitted: a stick swings the torque through
+#: the static band (``Fc + Fs ≥ 2·Fc``) at the turning point; a bristle the loop may name at all
+#: (``1/k`` of at least :data:`MIN_TRANSITION_COUNTS` quanta, :func:`_resolved`) changes it within 2.5
+#: quanta of the turn by at most ``2(1 − e^(−2.5/10))·Fc = 0.44·Fc``; half the Coulomb step, ``Fc``,
+#: lies between. The median of at least two reversals (one can be disturbed by a line or a noise burst).
+STICK_SWING_OVER_FC = 1.0
+STICK_MIN_REVERSALS = 2
+
+
+def _sticks_at_reversals(fit: FitResult, swings: np.ndarray, resolution: float) -> str | None:
+    """None unless a pre-sliding fit is contradicted by how the record's reversals move, else why.
+
+    A pre-sliding names the friction's reversal step a function of displacement: within
+    :data:`plant.calibration.residuals.DWELL_QUANTA` quanta of the turning point a bristle the loop
+    may name changes the friction by at most ``0.44·Fc``. Where the record's torque changes there by
+    at least :data:`STICK_SWING_OVER_FC` × ``Fc`` (the candidate's Coulomb level) at the median
+    reversal (:func:`plant.calibration.residuals.reversal_dwell_swings`), the axis stuck while the
+    servo ramped the torque — static friction with stiff bristles, whose breakaway a bristle in the
+    filtered velocity only imitates (docs/calibration.md, "Session 45"). Not applied with fewer than
+    :data:`STICK_MIN_REVERSALS` measured reversals.
+    """
+    if fit.spec.presliding_k is None or swings.size < STICK_MIN_REVERSALS:
+        return None
+    fc = _coulomb(fit)
+    med = float(np.median(swings))
+    if not fc > 0 or med < STICK_SWING_OVER_FC * fc:
+        return None
+    bound = 2.0 * (1.0 - math.exp(-(res.DWELL_QUANTA + 0.5) * resolution * fit.spec.presliding_k)) * fc
+    return (f"the axis sticks at its reversals: within {res.DWELL_QUANTA} position quanta of the turning point the torque "
+            f"changes by {med:.3g} (median of {swings.size} reversals), {med / fc:.2f} × the candidate's Fc = {fc:.3g}; its "
+            f"bristle (1/k = {1.0 / fit.spec.presliding_k:.3g}) changes it there by at most {bound:.3g}: static friction "
+            "with a stiff bristle, not pre-sliding")
+
+
 def typical_speed(prep: Prepared) -> float:
     """The record's typical moving speed [rad/s or m/s]: the median ``|dq|`` of the decimated moving
     samples (:func:`plant.calibration.residuals.moving_mask`); 0 if nothing moves."""
@@ -1775,6 +1809,7 @@ def run_loop(
     span = float(np.ptp(prep.q_dec[mov])) if mov.any() else float(np.ptp(prep.q_dec))
     vmax = float(np.percentile(np.abs(prep.dq), 99))
     n_rev = res.count_reversals(prep.t_dec, prep.dq_dec)
+    dwell_swings = res.reversal_dwell_swings(prep)   # _sticks_at_reversals, once per run
     speed_typ = typical_speed(prep)
     undecided: dict[str, dict[str, Any]] = {}
     phase_hz, phase_share = periodic_motion_hz(prep)
@@ -1836,12 +1871,14 @@ def run_loop(
                 why = (f"does not predict held-out blocks better: gain {c['cv_gain_pct']:.2f} %, z = {c['cv_z']:.1f} "
                        f"(needs > 0 and z ≥ {zc:.2f})")
                 if (c["group"] == "reversal" and c["cv_gain_pct"] > 0 and n_rev < k_min
-                        and c["cv_gain_pct"] > undecided.get(c["kind"], {}).get("cv_gain_pct", 0.0)):
+                        and c["cv_gain_pct"] > undecided.get(c["kind"], {}).get("cv_gain_pct", 0.0)
+                        and _sticks_at_reversals(c["fit"], dwell_swings, prep.position_resolution) is None):
                     undecided[c["kind"]] = {"kind": c["kind"], "reason": UNDECIDED_REVERSALS, "step": step,
                                             "cv_gain_pct": c["cv_gain_pct"], "cv_z": c["cv_z"],
                                             "n_reversals": n_rev, "min_reversals": k_min}
             elif c["kind"] in EFFECT_KINDS:
-                why = _resolved(c["fit"], prep.position_resolution) or _line_resolved(
+                why = _resolved(c["fit"], prep.position_resolution) or _sticks_at_reversals(
+                    c["fit"], dwell_swings, prep.position_resolution) or _line_resolved(
                     c["fit"], c["kind"], c["slot"], prep.position_resolution, speed_typ, cfg.drive_periods, span) or _count_alias(
                     c["fit"], c["kind"], c["slot"], alias_runs, alias_q, 1.0 / prep.dt_s)
             if why is None:

@@ -27,7 +27,8 @@ from scipy import signal
 
 from plant.calibration.fit import effective_n
 
-__all__ = ["velocity_profile", "position_spectrum", "time_spectrum", "reversal_profile", "find_peaks", "moving_mask", "summarize", "whiteness"]
+__all__ = ["velocity_profile", "position_spectrum", "time_spectrum", "reversal_profile", "reversal_dwell_swings", "find_peaks",
+           "moving_mask", "summarize", "whiteness"]
 
 #: fewest cycles over the travel (position) or the record (time) for a periodic term to be identifiable;
 #: the position spectrum searches from one cycle and :func:`find_peaks` drops maxima below this
@@ -280,6 +281,76 @@ def reversal_profile(t: np.ndarray, dq: np.ndarray, resid: np.ndarray, window_s:
         "share_pct": 100.0 * float(resid[inwin] @ resid[inwin]) / total,
         "time_share_pct": 100.0 * float(inwin.mean()),
     }
+
+
+#: :func:`reversal_dwell_swings` (session 45). Assumed, none fitted: a moving run lasts at least
+#: 0.1 s (a reversal joins two motions, not two noise excursions); a gap longer than 1 s between two
+#: runs is a stop whose torque the servo sets, not a reversal; the dwell is the samples within 2
+#: position quanta of the turning point (the quantiser's ±1 plus a count of sub-quantum creep); the
+#: torque is median-filtered over 5 samples within the dwell, so that its noise (a few % of Fc on
+#: both benchmark generators) adds no range.
+DWELL_MIN_RUN_S = 0.1
+DWELL_MAX_GAP_S = 1.0
+DWELL_QUANTA = 2
+DWELL_MEDIAN = 5
+
+
+def reversal_dwell_swings(prep) -> np.ndarray:
+    """How much the torque changes while the axis stays at each velocity reversal's turning point.
+
+    At a reversal the friction torque steps by about ``2·Fc``. A pre-sliding (LuGre bristle with
+    ``Fc/σ0`` of ``n`` position quanta) makes that step a function of the displacement: within
+    :data:`DWELL_QUANTA` quanta of the turning point (half a quantum more for the quantiser) the
+    bristle force changes by at most ``2·(1 − exp(−(DWELL_QUANTA + ½)/n))·Fc``. With stiff bristles
+    the axis sticks instead: the servo ramps the torque through the static band (from about ``+Fc``
+    to ``−Fs``) while the position stays within a count, and the axis breaks away afterwards. This
+    measures, per reversal, the range of the (median-filtered) logged torque over the samples whose
+    logged position is within :data:`DWELL_QUANTA` quanta of the turning point.
+
+    A reversal is a moving run (``|dq| ≥ 2 %`` of the 95th-percentile speed, the standstill rule of
+    :func:`plant.calibration.fit.prepare`, for at least :data:`DWELL_MIN_RUN_S`) followed within
+    :data:`DWELL_MAX_GAP_S` by a run of the other sign; the turning point is the extreme logged
+    position between them. Docs: docs/calibration.md, "Session 45".
+
+    Parameters
+    ----------
+    prep : plant.calibration.fit.Prepared
+        Uses the full-rate ``dq`` [rad/s or m/s], ``y`` [N·m or N], ``dt_s``,
+        ``position_resolution`` and the record's logged position (its last ``dq.size`` samples).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        The torque range [N·m or N] at each reversal, in time order; empty if none, or if the
+        position is not quantised (``position_resolution`` 0: no turning point to stay at).
+    """
+    from scipy.ndimage import median_filter
+    dq, y = prep.dq, prep.y
+    res_q = float(prep.position_resolution)
+    if dq.size < 10 or not res_q > 0:
+        return np.zeros(0)
+    pos = np.asarray(prep.record.position, dtype=float)[-dq.size:]
+    dt = prep.dt_s
+    v_still = 0.02 * float(np.percentile(np.abs(dq), 95))
+    mov = np.abs(dq) >= v_still
+    edges = np.flatnonzero(np.diff(np.r_[0, mov.astype(np.int8), 0]))
+    runs = [(a, b, float(np.sign(np.median(dq[a:b])))) for a, b in zip(edges[::2], edges[1::2])
+            if (b - a) * dt >= DWELL_MIN_RUN_S]
+    out = []
+    for (a1, b1, s1), (a2, b2, s2) in zip(runs[:-1], runs[1:]):
+        if s1 * s2 >= 0 or (a2 - b1) * dt > DWELL_MAX_GAP_S:
+            continue
+        seg = pos[a1:b2]
+        k = int(np.argmax(seg)) if s1 > 0 else int(np.argmin(seg))
+        near = np.abs(seg - seg[k]) <= (DWELL_QUANTA + 0.5) * res_q
+        # the contiguous stretch around the turning point
+        lo = k - int(np.argmin(near[k::-1])) + 1 if not near[: k + 1].all() else 0
+        hi = k + int(np.argmin(near[k:])) if not near[k:].all() else near.size
+        tq = y[a1 + lo: a1 + hi]
+        if tq.size >= DWELL_MEDIAN:
+            tq = median_filter(tq, DWELL_MEDIAN, mode="nearest")
+        out.append(float(np.ptp(tq)) if tq.size else 0.0)
+    return np.asarray(out, dtype=float)
 
 
 def summarize(prep, resid: np.ndarray) -> dict:
