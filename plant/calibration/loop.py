@@ -439,10 +439,16 @@ def _resolved(fit: FitResult, resolution: float = 0.0) -> str | None:
 #: lies between. The median of at least two reversals (one can be disturbed by a line or a noise burst).
 STICK_SWING_OVER_FC = 1.0
 STICK_MIN_REVERSALS = 2
+#: the same for a backlash (session 45, second change): the loop's gap (a play on the logged position,
+#: the Coulomb column 0 while it is crossed; at least :data:`MIN_TRANSITION_COUNTS` quanta wide) changes
+#: the friction at the turn by ``Fc`` (from ``±Fc`` to 0, a declared spring's unwinding included) and the
+#: rest only a gap's width later; the whole Coulomb step, ``2·Fc``, at the turning point contradicts it.
+STICK_SWING_OVER_FC_GAP = 2.0
 
 
 def _sticks_at_reversals(fit: FitResult, swings: np.ndarray, resolution: float) -> str | None:
-    """None unless a pre-sliding fit is contradicted by how the record's reversals move, else why.
+    """None unless a pre-sliding or backlash fit is contradicted by how the record's reversals move,
+    else why.
 
     A pre-sliding names the friction's reversal step a function of displacement: within
     :data:`plant.calibration.residuals.DWELL_QUANTA` quanta of the turning point a bristle the loop
@@ -450,20 +456,27 @@ def _sticks_at_reversals(fit: FitResult, swings: np.ndarray, resolution: float) 
     at least :data:`STICK_SWING_OVER_FC` × ``Fc`` (the candidate's Coulomb level) at the median
     reversal (:func:`plant.calibration.residuals.reversal_dwell_swings`), the axis stuck while the
     servo ramped the torque — static friction with stiff bristles, whose breakaway a bristle in the
-    filtered velocity only imitates (docs/calibration.md, "Session 45"). Not applied with fewer than
+    filtered velocity only imitates (docs/calibration.md, "Session 45"). A backlash (a gap crossed
+    with no friction) changes it there by ``Fc`` at most; it is refused where the swing reaches
+    :data:`STICK_SWING_OVER_FC_GAP` × ``Fc``, the whole Coulomb step. Not applied with fewer than
     :data:`STICK_MIN_REVERSALS` measured reversals.
     """
-    if fit.spec.presliding_k is None or swings.size < STICK_MIN_REVERSALS:
+    gap = fit.spec.backlash_width is not None and fit.spec.presliding_k is None
+    if (fit.spec.presliding_k is None and not gap) or swings.size < STICK_MIN_REVERSALS:
         return None
     fc = _coulomb(fit)
     med = float(np.median(swings))
-    if not fc > 0 or med < STICK_SWING_OVER_FC * fc:
+    limit = STICK_SWING_OVER_FC_GAP if gap else STICK_SWING_OVER_FC
+    if not fc > 0 or med < limit * fc:
         return None
+    head = (f"the axis sticks at its reversals: within {res.DWELL_QUANTA} position quanta of the turning point the torque "
+            f"changes by {med:.3g} (median of {swings.size} reversals), {med / fc:.2f} × the candidate's Fc = {fc:.3g}; ")
+    if gap:
+        return head + (f"a gap of {fit.spec.backlash_width:.3g} crossed without friction changes it there by at most Fc, the "
+                       "rest a gap's width later: the whole step at a fixed position is static friction, not a gap")
     bound = 2.0 * (1.0 - math.exp(-(res.DWELL_QUANTA + 0.5) * resolution * fit.spec.presliding_k)) * fc
-    return (f"the axis sticks at its reversals: within {res.DWELL_QUANTA} position quanta of the turning point the torque "
-            f"changes by {med:.3g} (median of {swings.size} reversals), {med / fc:.2f} × the candidate's Fc = {fc:.3g}; its "
-            f"bristle (1/k = {1.0 / fit.spec.presliding_k:.3g}) changes it there by at most {bound:.3g}: static friction "
-            "with a stiff bristle, not pre-sliding")
+    return head + (f"its bristle (1/k = {1.0 / fit.spec.presliding_k:.3g}) changes it there by at most {bound:.3g}: static "
+                   "friction with a stiff bristle, not pre-sliding")
 
 
 def typical_speed(prep: Prepared) -> float:
