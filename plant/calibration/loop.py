@@ -448,7 +448,8 @@ STICK_SWING_OVER_FC_GAP = 2.0
 
 def _sticks_at_reversals(fit: FitResult, swings: np.ndarray, resolution: float) -> str | None:
     """None unless a pre-sliding or backlash fit is contradicted by how the record's reversals move,
-    else why.
+    else why. For the reversal candidates only: a later candidate's fit carries an accepted
+    pre-sliding or backlash too, which is not the claim under test.
 
     A pre-sliding names the friction's reversal step a function of displacement: within
     :data:`plant.calibration.residuals.DWELL_QUANTA` quanta of the turning point a bristle the loop
@@ -1890,8 +1891,8 @@ def run_loop(
                                             "cv_gain_pct": c["cv_gain_pct"], "cv_z": c["cv_z"],
                                             "n_reversals": n_rev, "min_reversals": k_min}
             elif c["kind"] in EFFECT_KINDS:
-                why = _resolved(c["fit"], prep.position_resolution) or _sticks_at_reversals(
-                    c["fit"], dwell_swings, prep.position_resolution) or _line_resolved(
+                why = _resolved(c["fit"], prep.position_resolution) or (c["group"] == "reversal" and _sticks_at_reversals(
+                    c["fit"], dwell_swings, prep.position_resolution)) or _line_resolved(
                     c["fit"], c["kind"], c["slot"], prep.position_resolution, speed_typ, cfg.drive_periods, span) or _count_alias(
                     c["fit"], c["kind"], c["slot"], alias_runs, alias_q, 1.0 / prep.dt_s)
             if why is None:
