@@ -168,13 +168,19 @@ def _decimate_times(t: np.ndarray, r: int) -> np.ndarray:
     return t[_decimation_start(t.shape[0], r) :: r]
 
 
+#: The standstill rule's threshold as a fraction of the 95th-percentile speed (:func:`prepare`; also
+#: the moving runs of :func:`plant.calibration.residuals.reversal_dwell_swings`). Assumed, not fitted:
+#: the value the loop has used since it first left rests out of the fit; one place since session 45.
+STANDSTILL_FRAC = 0.02
+
+
 def prepare(
     record: Record,
     cutoff_hz: float | None = None,
     decimate: int | None = None,
     n_border: int = N_BORDER,
     exclude_standstill: bool | None = None,
-    standstill_frac: float = 0.02,
+    standstill_frac: float = STANDSTILL_FRAC,
     exclude_hunting: bool = True,
 ) -> Prepared:
     """Filter, differentiate and set up the decimation for a record.

@@ -25,7 +25,7 @@ import math
 import numpy as np
 from scipy import signal
 
-from plant.calibration.fit import effective_n
+from plant.calibration.fit import STANDSTILL_FRAC, effective_n
 
 __all__ = ["velocity_profile", "position_spectrum", "time_spectrum", "reversal_profile", "reversal_dwell_swings", "find_peaks",
            "moving_mask", "summarize", "whiteness"]
@@ -307,8 +307,8 @@ def reversal_dwell_swings(prep) -> np.ndarray:
     measures, per reversal, the range of the (median-filtered) logged torque over the samples whose
     logged position is within :data:`DWELL_QUANTA` quanta of the turning point.
 
-    A reversal is a moving run (``|dq| ≥ 2 %`` of the 95th-percentile speed, the standstill rule of
-    :func:`plant.calibration.fit.prepare`, for at least :data:`DWELL_MIN_RUN_S`) followed within
+    A reversal is a moving run (``|dq| ≥`` :data:`plant.calibration.fit.STANDSTILL_FRAC` × the
+    95th-percentile speed, the standstill rule of :func:`plant.calibration.fit.prepare`, for at least :data:`DWELL_MIN_RUN_S`) followed within
     :data:`DWELL_MAX_GAP_S` by a run of the other sign; the turning point is the extreme logged
     position between them. Docs: docs/calibration.md, "Session 45".
 
@@ -331,7 +331,7 @@ def reversal_dwell_swings(prep) -> np.ndarray:
         return np.zeros(0)
     pos = np.asarray(prep.record.position, dtype=float)[-dq.size:]
     dt = prep.dt_s
-    v_still = 0.02 * float(np.percentile(np.abs(dq), 95))
+    v_still = STANDSTILL_FRAC * float(np.percentile(np.abs(dq), 95))
     mov = np.abs(dq) >= v_still
     edges = np.flatnonzero(np.diff(np.r_[0, mov.astype(np.int8), 0]))
     runs = [(a, b, float(np.sign(np.median(dq[a:b])))) for a, b in zip(edges[::2], edges[1::2])
