@@ -291,8 +291,7 @@ def prepare(
             hunt = hunting_mask(t_dec, dq_dec, v_still, resolution)
             if hunt.any():
                 mask &= ~hunt
-                edges = np.flatnonzero(np.diff(np.r_[0, hunt.astype(np.int8), 0]))
-                hunting = [(float(t_dec[a]), float(t_dec[b - 1])) for a, b in zip(edges[::2], edges[1::2])]
+                hunting = [(float(t_dec[a]), float(t_dec[b - 1])) for a, b in true_runs(hunt)]
         n_still = int((~mask).sum())
         if n_still:
             keep = np.flatnonzero(mask)
@@ -609,6 +608,14 @@ def geared_coulomb(q: np.ndarray, gap: float, swing: float) -> tuple[np.ndarray,
     return ql, np.where(delta > h, delta - h, np.where(delta < -h, delta + h, 0.0)) / float(swing)
 
 
+def true_runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """The runs of True in a boolean array of shape (N,), as ``(start, stop)`` index pairs (stop
+    exclusive), in order. Used by :func:`stick_ramp` (rests), :func:`prepare` (hunting stretches) and
+    :func:`plant.calibration.residuals.reversal_dwell_swings` (moving runs)."""
+    edges = np.flatnonzero(np.diff(np.r_[0, np.asarray(mask, dtype=bool).astype(np.int8), 0]))
+    return [(int(a), int(b)) for a, b in zip(edges[0::2], edges[1::2])]
+
+
 def stick_ramp(c: np.ndarray, rest: np.ndarray) -> np.ndarray:
     """The Coulomb column ``c = sign(w)`` with each run of rest samples replaced by a straight line
     from the sliding value before the run to the one after it.
@@ -623,9 +630,7 @@ def stick_ramp(c: np.ndarray, rest: np.ndarray) -> np.ndarray:
     """
     out = np.array(c, dtype=float)
     n = out.size
-    r = np.asarray(rest, dtype=bool)
-    edges = np.flatnonzero(np.diff(np.r_[0, r.astype(np.int8), 0]))
-    for a, b in zip(edges[0::2], edges[1::2]):
+    for a, b in true_runs(rest):
         left = out[a - 1] if a > 0 else (out[b] if b < n else 0.0)
         right = out[b] if b < n else left
         out[a:b] = left + (right - left) * (np.arange(1, b - a + 1) / (b - a + 1))

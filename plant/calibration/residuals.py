@@ -25,7 +25,7 @@ import math
 import numpy as np
 from scipy import signal
 
-from plant.calibration.fit import STANDSTILL_FRAC, effective_n
+from plant.calibration.fit import STANDSTILL_FRAC, effective_n, true_runs
 
 __all__ = ["velocity_profile", "position_spectrum", "time_spectrum", "reversal_profile", "reversal_dwell_swings", "find_peaks",
            "moving_mask", "summarize", "whiteness"]
@@ -333,9 +333,7 @@ def reversal_dwell_swings(prep) -> np.ndarray:
     dt = prep.dt_s
     v_still = STANDSTILL_FRAC * float(np.percentile(np.abs(dq), 95))
     mov = np.abs(dq) >= v_still
-    edges = np.flatnonzero(np.diff(np.r_[0, mov.astype(np.int8), 0]))
-    runs = [(a, b, float(np.sign(np.median(dq[a:b])))) for a, b in zip(edges[::2], edges[1::2])
-            if (b - a) * dt >= DWELL_MIN_RUN_S]
+    runs = [(a, b, float(np.sign(np.median(dq[a:b])))) for a, b in true_runs(mov) if (b - a) * dt >= DWELL_MIN_RUN_S]
     out = []
     for (a1, b1, s1), (a2, b2, s2) in zip(runs[:-1], runs[1:]):
         if s1 * s2 >= 0 or (a2 - b1) * dt > DWELL_MAX_GAP_S:
