@@ -1,7 +1,8 @@
 """Session 46: which records the change can act on, from the record alone (no loop run).
 
 The change tests pre-sliding and backlash candidates on one rank-test unit per reversal where the
-record's prepared position has at least ``min_events`` (13) reversal units
+record's prepared position has at least ``min_events`` (13) reversal units (the second version: 14,
+``loop.UNIT_SPARE``)
 (``plant.calibration.residuals.reversal_units``); on every other record the loop computes exactly
 what main computes (the named sets; only an undecided entry's reversal count differs). So a decision
 runs the change and main on the screened records only. The record is read as `calibrate` reads it:
@@ -20,7 +21,7 @@ def one(job):
     from plant.calibration.fit import prepare
     from plant.calibration.io import load_record
     from plant.calibration import residuals as res
-    from plant.calibration.loop import FAMILY_CANDIDATES, LoopConfig, min_events
+    from plant.calibration import loop
     gen, seed = job
     rec = importlib.import_module(GEN[gen]).make_record(seed)
     with tempfile.TemporaryDirectory() as d:
@@ -28,9 +29,11 @@ def one(job):
         prep = prepare(load_record(pathlib.Path(d) / "rec.csv"))
     u = res.reversal_units(prep.q_dec, prep.position_resolution)
     n_units = int(u[0][-1]) + 1 if u is not None else 0
-    cfg = LoopConfig()
+    cfg = loop.LoopConfig()
+    # the first version used the units from min_events on; the second (UNIT_SPARE) from one more
+    need = loop.min_events(cfg.family_alpha, loop.FAMILY_CANDIDATES * cfg.max_effects) + getattr(loop, "UNIT_SPARE", 0)
     return {"generator": gen, "seed": seed, "hidden": list(rec.hidden), "n_reversals": u[1] if u is not None else None,
-            "n_units": n_units, "acts": n_units >= min_events(cfg.family_alpha, FAMILY_CANDIDATES * cfg.max_effects)}
+            "n_units": n_units, "acts": n_units >= need}
 
 
 if __name__ == "__main__":
