@@ -1,17 +1,15 @@
-"""Session 26: a time line at the motion's own frequency on a sinusoid of fewer than 3 cycles — a known
-defect, not fixed (docs/calibration.md "Session 26").
+"""A time line at the motion's own frequency on a sinusoid of fewer than 3 cycles (docs/calibration.md
+"Session 26": a known defect; "Session 47": fixed).
 
 On a sinusoidal motion, ``q = A(1 − cos ωt)`` and ``dq = Aω sin ωt``, so a torque line at ω is
 ``a·dq + b·q`` exactly: a torque that depends on the position (a cable wrap's spring, an
 unmodelled imbalance over a short travel) looks like a disturbance at the motion's own frequency.
-With fewer than 3 cycles the phase guard of session 18 is off, and the test against a flexible
-function of the velocity alone lets such a line through (blind record 284). Adding hinges in the
-position to that test fixed this record and held the benchmark bars, but a real 0.3 Hz line on a
-staircase was then refused (tests/test_calibration_phase_guard.py): under blocked cross-validation
-position hinges extrapolate badly to blocks whose positions the other blocks barely visit, so the
-change was not kept. The first test records the defect as a strict xfail; the second checks that a
-disturbance away from the motion's lines is found. Records written in the test from the equations
-(open loop, the torque computed from a prescribed motion; no code of ``plant/`` makes them).
+Until session 47 the phase guard of session 18 needed 3 cycles, and the test against a flexible
+function of the velocity alone let such a line through (blind record 284; session 26 kept this as a
+strict xfail). Session 47: a motion that 3 harmonics describe is periodic from 2 cycles
+(``loop.PERIODIC_MIN_CYCLES_SINUSOID``), so the guard holds the motion's own lines there too. Records
+written in the test from the equations (open loop, the torque computed from a prescribed motion; no
+code of ``plant/`` makes them).
 """
 
 import math
@@ -35,17 +33,23 @@ def _near(f_hz, f0, t_span):
     return abs(f_hz - f0) < 1.0 / t_span
 
 
-@pytest.mark.xfail(strict=True, reason="known defect (session 26): a position-linear torque on a sinusoid of < 3 "
-                   "cycles is named a time line at the motion's frequency; the position-hinge guard that fixed it "
-                   "refused a real line on a staircase and was not kept")
-def test_a_position_dependent_torque_is_not_named_a_line_at_the_motions_frequency():
+def test_a_position_dependent_torque_is_not_named_a_line_at_the_motions_frequency(monkeypatch):
+    """2 N·m/rad about the middle of the travel on 2.5 cycles: without the two-cycle search the guard is
+    off and a line at the motion's frequency is named (the defect, checked); with it the motion is
+    periodic and no such line is named."""
     v, f0 = _sinusoid_motion()
     spring_nm_rad = 2.0  # assumed: a cable-wrap-like torque, 2 N·m per rad about the middle of the travel
     rec = _record(v, torque_extra=lambda t, q: spring_nm_rad * (q - 0.5))
     prep = prepare(rec)
-    assert loop.periodic_motion_hz(prep)[0] is None, "2.5 cycles: the phase guard must be off for this test"
-    result = loop.run_loop(prep)
     t_span = float(rec.t_s[-1] - rec.t_s[0])
+    monkeypatch.setattr(loop, "PERIODIC_MIN_CYCLES_SINUSOID", loop.PERIODIC_MIN_CYCLES)
+    assert loop.periodic_motion_hz(prep)[0] is None
+    lines = [e for e in loop.run_loop(prep).effects() if e.kind == "time_periodic"]
+    assert any(_near(e.frequency_hz, f0, t_span) for e in lines), "the record no longer shows the defect"
+    monkeypatch.undo()
+    f, _ = loop.periodic_motion_hz(prep)
+    assert f == pytest.approx(f0, rel=0.01)
+    result = loop.run_loop(prep)
     lines = [e for e in result.effects() if e.kind == "time_periodic"]
     assert not any(_near(e.frequency_hz, f0, t_span) for e in lines), [e.frequency_hz for e in lines]
 
@@ -57,3 +61,23 @@ def test_a_disturbance_away_from_the_motions_lines_is_still_found():
     result = loop.run_loop(prepare(rec))
     lines = [e for e in result.effects() if e.kind == "time_periodic"]
     assert any(abs(e.frequency_hz - f_d) < 0.01 * f_d for e in lines)
+
+
+def test_under_two_cycles_a_sinusoid_is_not_periodic():
+    """1.6 cycles: below ``PERIODIC_MIN_CYCLES_SINUSOID`` the record cannot tell a period from a slow
+    function of time; the guard stays off."""
+    v, _ = _sinusoid_motion(cycles=1.6)
+    assert loop.periodic_motion_hz(prepare(_record(v)))[0] is None
+
+
+def test_two_back_and_forth_legs_at_different_speeds_are_not_periodic():
+    """Two out-and-back legs at 0.02 and 0.08 rad/s (2 "cycles" of direction, not of a period): the
+    second search asks 3 harmonics of one fundamental to explain 95 % of the velocity, which this
+    motion does not give, so the guard stays off."""
+    segs = []
+    for speed in (0.02, 0.08):
+        ramp = np.linspace(0.0, speed, int(1.0 * FS_HZ))
+        leg = np.concatenate([ramp, np.full(int(10.0 * FS_HZ), speed), ramp[::-1]])
+        segs += [leg, -leg]
+    f, share = loop.periodic_motion_hz(prepare(_record(np.concatenate(segs))))
+    assert f is None and share < loop.PERIODIC_MIN_SHARE

@@ -1350,6 +1350,14 @@ PERIODIC_MAX_HARMONICS = 15
 #: ... and when the record holds at least this many of its periods (fewer: every smooth function of
 #: time would count as "periodic").
 PERIODIC_MIN_CYCLES = 3.0
+#: ... or, for a motion that :data:`~plant.calibration.fit.PHASE_HARMONICS` (3) harmonics describe (a
+#: sinusoid), at least this many (session 47). Seven columns over two periods are far from "every smooth
+#: function of time" (a back-and-forth sweep needs 9 harmonics, a staircase or a tracking run many more),
+#: while on a sinusoid of 2–3 cycles without the phase guard a time line at the motion's own frequency or
+#: a gravity stood in for the model's error along the motion (blind 15285: a 15 N·m line on a clean record,
+#: the viscous coefficient ×11 beside it; 10 of the 42 used blind sinusoids of 2–3 cycles, 14620–15339,
+#: named a kind they did not hide).
+PERIODIC_MIN_CYCLES_SINUSOID = 2.0
 
 
 def _harmonic_shares(t: np.ndarray, v: np.ndarray, var: float, f: float, k_max: int, odd: bool = False) -> np.ndarray:
@@ -1409,7 +1417,9 @@ def periodic_motion(prep: Prepared) -> tuple[float | None, float, int]:
     harmonics explain (0..1); and the number K of harmonics that reach it.
 
     A motion is periodic when K harmonics of one fundamental explain ≥ :data:`PERIODIC_MIN_SHARE` of
-    the velocity's variance with ≥ ``PERIODIC_MIN_CYCLES`` cycles in the record. K is the smallest
+    the velocity's variance with ≥ ``PERIODIC_MIN_CYCLES`` cycles in the record — or, when that search
+    finds none, when ``PHASE_HARMONICS`` harmonics do so with ≥ :data:`PERIODIC_MIN_CYCLES_SINUSOID`
+    cycles (a sinusoid of 2–3 cycles; session 47, docs/calibration.md). K is the smallest
     number from ``PHASE_HARMONICS`` (3, session 18's guard) to :data:`PERIODIC_MAX_HARMONICS` (15)
     for which a fundamental reaches that share, and the fundamental is the best one at that K: a
     sinusoid needs 3 (as before session 25), a back-and-forth sweep, whose velocity is close to a
@@ -1444,11 +1454,25 @@ def periodic_motion(prep: Prepared) -> tuple[float | None, float, int]:
         return None, 0.0, PHASE_HARMONICS
     if var <= 0:
         return None, 0.0, PHASE_HARMONICS
+    f, share, k = _periodic_search(t, v, v0, var, dt_rows, PERIODIC_MIN_CYCLES, PERIODIC_MAX_HARMONICS)
+    if f is None:
+        # a sinusoid-like motion (PHASE_HARMONICS harmonics suffice) from fewer cycles (session 47)
+        f2, share2, k2 = _periodic_search(t, v, v0, var, dt_rows, PERIODIC_MIN_CYCLES_SINUSOID, PHASE_HARMONICS)
+        if f2 is not None:
+            return f2, share2, k2
+    return f, share, k
+
+
+def _periodic_search(t: np.ndarray, v: np.ndarray, v0: np.ndarray, var: float, dt_rows: float, cycles: float,
+                     k_top: int) -> tuple[float | None, float, int]:
+    """:func:`periodic_motion`'s search with at least ``cycles`` periods in the record and at most
+    ``k_top`` harmonics (same returns)."""
+    n = t.size
     fs = 1.0 / dt_rows
     freqs = np.fft.rfftfreq(n, d=dt_rows)
     spec = np.abs(np.fft.rfft(v0 * np.hanning(n)))
     # (3 % slack: a record of exactly three periods is periodic; the grid below is ±3 % wide)
-    min_cycles = 0.97 * PERIODIC_MIN_CYCLES
+    min_cycles = 0.97 * cycles
     ok = freqs >= min_cycles / t[-1]
     if not ok.any():
         return None, 0.0, PHASE_HARMONICS
@@ -1482,7 +1506,7 @@ def periodic_motion(prep: Prepared) -> tuple[float | None, float, int]:
             add(np.linspace(f_best - d, f_best + d, 21))
     if not grid:
         return None, 0.0, PHASE_HARMONICS
-    for k in range(PHASE_HARMONICS, PERIODIC_MAX_HARMONICS + 1):
+    for k in range(PHASE_HARMONICS, k_top + 1):
         best_f, best_share = None, 0.0
         for f, sh in grid:
             if sh.size >= k and sh[k - 1] > best_share:
