@@ -1352,8 +1352,9 @@ PERIODIC_MAX_HARMONICS = 15
 PERIODIC_MIN_CYCLES = 3.0
 #: ... or, for a motion that :data:`~plant.calibration.fit.PHASE_HARMONICS` (3) harmonics describe (a
 #: sinusoid), at least this many (session 47). Seven columns over two periods are far from "every smooth
-#: function of time" (a back-and-forth sweep needs 9 harmonics, a staircase or a tracking run many more),
-#: while on a sinusoid of 2–3 cycles without the phase guard a time line at the motion's own frequency or
+#: function of time" (a staircase, a tracking run or legs at different speeds need many more; a
+#: back-and-forth sweep with short ramps can reach 95 % with 3 and is then guarded, as it is from 3
+#: cycles on), while on a sinusoid of 2–3 cycles without the phase guard a time line at the motion's own frequency or
 #: a gravity stood in for the model's error along the motion (blind 15285: a 15 N·m line on a clean record,
 #: the viscous coefficient ×11 beside it; 10 of the 42 used blind sinusoids of 2–3 cycles, 14620–15339,
 #: named a kind they did not hide).
@@ -1471,7 +1472,7 @@ def _periodic_search(t: np.ndarray, v: np.ndarray, v0: np.ndarray, var: float, d
     fs = 1.0 / dt_rows
     freqs = np.fft.rfftfreq(n, d=dt_rows)
     spec = np.abs(np.fft.rfft(v0 * np.hanning(n)))
-    # (3 % slack: a record of exactly three periods is periodic; the grid below is ±3 % wide)
+    # (3 % slack: a record of exactly ``cycles`` periods is periodic; the grid below is ±3 % wide)
     min_cycles = 0.97 * cycles
     ok = freqs >= min_cycles / t[-1]
     if not ok.any():
