@@ -11,22 +11,18 @@ written to CSV, loaded, prepared.
 Usage (repository root, the change's tree): python screen.py OUT.json GEN:LO-HI ...
 Output: OUT.json, one entry per record: generator, seed, n_reversals, n_units, acts (bool).
 """
-import json, os, pathlib, sys, tempfile, importlib
+import json, os, pathlib, sys
 sys.path.insert(0, os.getcwd())
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent / "tools"))
 from jobs import GEN, map_jobs, seed_jobs
+from screening import prepared_record
 
 
 def one(job):
-    from plant.calibration.fit import prepare
-    from plant.calibration.io import load_record
     from plant.calibration import residuals as res
     from plant.calibration import loop
     gen, seed = job
-    rec = importlib.import_module(GEN[gen]).make_record(seed)
-    with tempfile.TemporaryDirectory() as d:
-        rec.write_csv(pathlib.Path(d) / "rec.csv")
-        prep = prepare(load_record(pathlib.Path(d) / "rec.csv"))
+    rec, _, prep = prepared_record(gen, seed)
     u = res.reversal_units(prep.q_dec, prep.position_resolution)
     n_units = int(u[0][-1]) + 1 if u is not None else 0
     cfg = loop.LoopConfig()

@@ -9,25 +9,19 @@ change and main compute the same thing. A decision therefore runs both on the sc
 Usage (repository root): python screen.py OUT.json GEN:LO-HI ...
 Output: OUT.json, one entry per record: generator, seed, hidden, span_deg, linear, acts (bool).
 """
-import json, math, os, pathlib, sys, tempfile, importlib
+import math, os, pathlib, sys
 import numpy as np
 sys.path.insert(0, os.getcwd())
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent / "tools"))
-from jobs import GEN, map_jobs, seed_jobs
+from screening import prepared_record, run_screen
 
 LO_DEG, HI_DEG = 10.0, 20.0
 
 
 def one(job):
-    from plant.calibration.fit import prepare
-    from plant.calibration.io import load_record
     from plant.calibration import residuals as res
     gen, seed = job
-    rec = importlib.import_module(GEN[gen]).make_record(seed)
-    with tempfile.TemporaryDirectory() as d:
-        rec.write_csv(pathlib.Path(d) / "rec.csv")
-        loaded = load_record(pathlib.Path(d) / "rec.csv")
-        prep = prepare(loaded)
+    rec, loaded, prep = prepared_record(gen, seed)
     mov = res.moving_mask(prep.dq_dec)   # as run_loop computes its span
     span = float(np.ptp(prep.q_dec[mov])) if mov.any() else float(np.ptp(prep.q_dec))
     deg = math.degrees(span)
@@ -36,10 +30,4 @@ def one(job):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) < 3:
-        sys.exit(__doc__)
-    out = map_jobs(one, seed_jobs(sys.argv[2:]))
-    json.dump(out, open(sys.argv[1], "w"), indent=0)
-    for gen in GEN:
-        rs = [o for o in out if o["generator"] == gen]
-        print(f"{gen}: {len(rs)} records, the change acts on {sum(o['acts'] for o in rs)}")
+    run_screen(one, sys.argv, __doc__)

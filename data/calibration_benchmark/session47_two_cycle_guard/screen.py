@@ -10,21 +10,16 @@ tree: a record acts when ``periodic_motion`` (the change) finds a fundamental an
 Usage (repository root of the change's tree): python screen.py OUT.json GEN:LO-HI ...
 Output: OUT.json, one entry per record: generator, seed, hidden, f_hz (change), cycles, acts.
 """
-import json, os, pathlib, sys, tempfile, importlib
+import os, pathlib, sys
 sys.path.insert(0, os.getcwd())
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent / "tools"))
-from jobs import GEN, map_jobs, seed_jobs
+from screening import prepared_record, run_screen
 
 
 def one(job):
-    from plant.calibration.fit import prepare
-    from plant.calibration.io import load_record
     from plant.calibration import loop
     gen, seed = job
-    rec = importlib.import_module(GEN[gen]).make_record(seed)
-    with tempfile.TemporaryDirectory() as d:
-        rec.write_csv(pathlib.Path(d) / "rec.csv")
-        prep = prepare(load_record(pathlib.Path(d) / "rec.csv"))
+    rec, _, prep = prepared_record(gen, seed)
     f_new, _, _ = loop.periodic_motion(prep)
     t, v, v0, var, dt_rows = loop._velocity_rows(prep)
     f_main = (loop._periodic_search(t, v, v0, var, dt_rows, loop.PERIODIC_MIN_CYCLES, loop.PERIODIC_MAX_HARMONICS)[0]
@@ -34,10 +29,4 @@ def one(job):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) < 3:
-        sys.exit(__doc__)
-    out = map_jobs(one, seed_jobs(sys.argv[2:]))
-    json.dump(out, open(sys.argv[1], "w"), indent=0)
-    for gen in GEN:
-        rs = [o for o in out if o["generator"] == gen]
-        print(f"{gen}: {len(rs)} records, the change acts on {sum(o['acts'] for o in rs)}")
+    run_screen(one, sys.argv, __doc__)
