@@ -481,6 +481,10 @@ class ModelSpec:
     #: only the odd harmonics k = 1, 3, … ≤ ``phase_harmonics`` in the ``"phase_function"`` nuisance (a
     #: half-wave symmetric motion: loop.half_wave_fundamental, session 42)
     phase_odd: bool = False
+    #: shape of the ``"friction_drift"`` nuisance's second time column: ``None`` for τ² (sessions ≤ 47),
+    #: else ``exp(−τ/λ)`` with this λ, the drift's time constant as a fraction of the record (a
+    #: first-order warm-up; chosen by :func:`plant.calibration.loop._drift_candidate`, session 48)
+    drift_time_constant: float | None = None
     gear_stiffness: float | None = None
     spring_coulomb: float | None = None
 
@@ -711,7 +715,8 @@ def design_columns(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None,
         if nz == "friction_drift":
             tau = (t - t[0]) / max(float(t[-1] - t[0]), 1e-12)
             names += ["nz_drift_c1", "nz_drift_w1", "nz_drift_c2", "nz_drift_w2"]
-            cols += [c * tau, w * tau, c * tau**2, w * tau**2]
+            shape = drift_shape(tau, spec.drift_time_constant)
+            cols += [c * tau, w * tau, c * shape, w * shape]
         elif nz == "friction_along_travel":
             # the Coulomb column times a piecewise-linear function of the position (hinges at the
             # 5-95 % quantiles): a friction level that changes along the travel (bearing load with
@@ -738,6 +743,24 @@ def design_columns(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None,
                 names += [f"nz_phase{k}_sin", f"nz_phase{k}_cos"]
                 cols += [np.sin(x), np.cos(x)]
     return names, [np.ascontiguousarray(c, dtype=np.float64) for c in cols]
+
+
+def drift_shape(tau: np.ndarray, time_constant: float | None) -> np.ndarray:
+    """The friction drift's second time function on normalised time ``tau`` (0..1, shape (N,)):
+    ``τ²`` when ``time_constant`` is None, else ``exp(−τ/time_constant)`` (a first-order warm-up
+    whose time constant is that fraction of the record). With the Coulomb column and ``τ`` in the
+    model, ``exp(−τ/λ)`` tends to the span of ``τ²`` as λ grows, so the quadratic is the limit of
+    a slow warm-up (session 48)."""
+    if time_constant is None:
+        return tau**2
+    return np.exp(-tau / time_constant)
+
+
+def drift_shape_mean(time_constant: float | None) -> float:
+    """Mean of :func:`drift_shape` over τ uniform on 0..1: 1/3, or ``λ(1 − e^(−1/λ))``."""
+    if time_constant is None:
+        return 1.0 / 3.0
+    return time_constant * (1.0 - math.exp(-1.0 / time_constant))
 
 
 def design(prep: Prepared, spec: ModelSpec) -> tuple[list[str], np.ndarray]:
