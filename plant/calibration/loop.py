@@ -301,6 +301,14 @@ def z_critical(alpha: float, n_tests: int) -> float:
     return float(stats.norm.isf(alpha / max(n_tests, 1)))
 
 
+def single_test_z(cfg: "LoopConfig") -> float:
+    """Critical z of a test made once per run beside the candidate steps (the Stribeck term, the friction
+    drift's exponential shape): the run's family-wise level ``cfg.family_alpha`` over 12 tests per step
+    times ``cfg.max_effects`` steps, the Bonferroni count the Stribeck test has used since it joined the
+    family."""
+    return z_critical(cfg.family_alpha, 12 * cfg.max_effects)
+
+
 def min_events(alpha: float, n_tests: int) -> int:
     """Fewest independent events (batches that all improve) that can pass the rule at all.
 
@@ -338,7 +346,7 @@ def fit_baseline(prep: Prepared, cfg: LoopConfig | None = None) -> tuple[FitResu
     decision.update({"vs": best.spec.stribeck_vs, "static_minus_coulomb": excess, "std_eff": sd, "cv_gain_pct": gain,
                      "cv_z": z, "slow_share": slow_share})
     # the Stribeck test belongs to the run's family of tests: same Bonferroni level as the effects
-    zc = z_critical(cfg.family_alpha, 12 * cfg.max_effects)
+    zc = single_test_z(cfg)
     if predicts(gain, z, zc) and excess > 0 and slow_share >= 0.02:
         decision["included"] = True
         decision["reason"] = (f"predicts held-out blocks better (gain {gain:.1f} %, z = {z:.1f}), Ts − Fc = {excess:.3g} ± {sd:.2g}, "
@@ -1040,7 +1048,6 @@ def backlash_gap(width: float, coulomb: float, static: float, stiffness: float) 
     return max(width - 0.5 * (max(coulomb, 0.0) + max(static, 0.0)) / stiffness, 0.0)
 
 
-
 def _coulomb(fit: FitResult) -> float:
     """The fit's Coulomb level [N·m or N] averaged over the record's time.
 
@@ -1338,7 +1345,7 @@ def _drift_candidate(ctx: _Ctx) -> FitResult:
         quad = fits[DRIFT_TIME_CONSTANTS.index(None)]
         gain, z = cv_compare(cv_losses(ctx.prep, quad.spec, ctx.cfg.k_folds),
                              cv_losses(ctx.prep, best.spec, ctx.cfg.k_folds))
-        if not predicts(gain, z, z_critical(ctx.cfg.family_alpha, 12 * ctx.cfg.max_effects)):
+        if not predicts(gain, z, single_test_z(ctx.cfg)):
             best = quad
     return fit_model(ctx.prep, best.spec)
 
