@@ -485,6 +485,11 @@ class ModelSpec:
     #: else ``exp(−τ/λ)`` with this λ, the drift's time constant as a fraction of the record (a
     #: first-order warm-up; chosen by :func:`plant.calibration.loop._drift_candidate`, session 48)
     drift_time_constant: float | None = None
+    #: the ``"friction_drift"`` nuisance as a heating: its columns are the Coulomb and viscous
+    #: columns times first-order lags (time constant ``drift_time_constant``) of ``|dq|`` and
+    #: ``dq²``, the two parts of the friction power — a friction level that follows a temperature
+    #: warmed by the friction's own dissipation, not the clock (:func:`heating_shapes`, session 49)
+    drift_heating: bool = False
     gear_stiffness: float | None = None
     spring_coulomb: float | None = None
 
@@ -715,8 +720,14 @@ def design_columns(prep: Prepared, spec: ModelSpec, q=None, dq=None, ddq=None,
         if nz == "friction_drift":
             tau = (t - t[0]) / max(float(t[-1] - t[0]), 1e-12)
             names += ["nz_drift_c1", "nz_drift_w1", "nz_drift_c2", "nz_drift_w2"]
-            shape = drift_shape(tau, spec.drift_time_constant)
-            cols += [c * tau, w * tau, c * shape, w * shape]
+            if spec.drift_heating:
+                if spec.drift_time_constant is None:
+                    raise ValueError("the heating friction drift needs ModelSpec.drift_time_constant")
+                h1, h2 = heating_shapes(w, dt, spec.drift_time_constant * max(float(t[-1] - t[0]), 1e-12))
+                cols += [c * h1, w * h1, c * h2, w * h2]
+            else:
+                shape = drift_shape(tau, spec.drift_time_constant)
+                cols += [c * tau, w * tau, c * shape, w * shape]
         elif nz == "friction_along_travel":
             # the Coulomb column times a piecewise-linear function of the position (hinges at the
             # 5-95 % quantiles): a friction level that changes along the travel (bearing load with
@@ -754,6 +765,37 @@ def drift_shape(tau: np.ndarray, time_constant: float | None) -> np.ndarray:
     if time_constant is None:
         return tau**2
     return np.exp(-tau / time_constant)
+
+
+def heating_shapes(w: np.ndarray, dt_s: float, time_constant_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """First-order lags of the two parts of the friction power, each scaled to mean 1 over the record.
+
+    A friction level that follows a temperature warmed by the friction's own dissipation
+    (``P = Fc·|w| + Fv·w²``) and cooled toward ambient with one time constant changes by
+    ``β·(Fc·x₁ + Fv·x₂)``, ``xᵢ`` the lags of ``|w|`` and ``w²`` from a cold start: linear in the two
+    lags, so the drift is fitted as the Coulomb and viscous columns times each (session 49).
+
+    Parameters
+    ----------
+    w : ndarray, shape (N,)
+        Velocity [rad/s or m/s], uniformly sampled.
+    dt_s : float
+        Sample interval [s].
+    time_constant_s : float
+        The heating's time constant [s] (> 0).
+
+    Returns
+    -------
+    x1, x2 : ndarray, shape (N,)
+        Lags of ``|w|`` and ``w²``, each divided by its mean (mean 1; zeros for a record at rest).
+    """
+    a = math.exp(-dt_s / time_constant_s)
+    out = []
+    for u in (np.abs(w), w * w):
+        x = signal.lfilter([1.0 - a], [1.0, -a], u)
+        m = float(np.mean(x))
+        out.append(x / m if m > 0 else np.zeros_like(x))
+    return out[0], out[1]
 
 
 def drift_shape_mean(time_constant: float | None) -> float:

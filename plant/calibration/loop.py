@@ -1065,7 +1065,10 @@ def _coulomb(fit: FitResult) -> float:
         level = 0.5 * (fit.param("coulomb_pos") + fit.param("coulomb_neg"))
     # means of the drift's time columns over a uniformly sampled record (τ from 0 to 1): mean(τ) = 1/2,
     # the second column's from fit.drift_shape_mean (1/3 for τ²)
-    for name, mean in (("nz_drift_c1", 0.5), ("nz_drift_c2", drift_shape_mean(fit.spec.drift_time_constant))):
+    # (the heating shapes, fit.heating_shapes, have mean 1 by construction)
+    means = ((1.0, 1.0) if fit.spec.drift_heating
+             else (0.5, drift_shape_mean(fit.spec.drift_time_constant)))
+    for name, mean in zip(("nz_drift_c1", "nz_drift_c2"), means):
         if name in fit.names:
             level += mean * fit.param(name)
     return level
@@ -1125,6 +1128,9 @@ class _Ctx:
     two_way: bool = True
     #: the declared spring's Coulomb level and model, once per step (:func:`_beats_gear_spring`)
     spring_cache: dict[str, Any] = dataclasses.field(default_factory=dict)
+    #: the phase guard's lines on a periodic motion (fundamental [Hz], harmonics, odd only), else None
+    #: (:func:`run_loop`; used by the heating drift's rival, :func:`_drift_candidate`)
+    guard: tuple[float, int, bool] | None = None
 
     @property
     def unit_pos(self) -> str:
@@ -1306,47 +1312,85 @@ if set(_BUILDERS) != set(EFFECT_KINDS):  # pragma: no cover - a new kind needs i
 #: faster decay lies in the first block, where held-out prediction can only extrapolate it and where
 #: a start-up transient (the axis and the loop settling, the decimation filter's edge) looks the same —
 #: on fixed seeds 55 and 56 and on a linear ramp the in-sample minimum sat there (session 48). Up to
-#: 1.5 records; spaced about 1.6× apart, then refined between neighbours.
+#: 1.5 records; spaced about 1.6× apart, then refined between neighbours. The heating shape
+#: (session 49) uses the same grid without ``None``.
 DRIFT_TIME_CONSTANTS = (0.125, 0.2, 0.33, 0.55, 0.9, 1.5, None)
+
+
+#: The friction drift's shape families tried by :func:`_drift_candidate`: ``"warm-up"``, functions of
+#: the record's time (τ with τ² or exp(−τ/λ), session 48), and ``"heating"``, lags of the friction
+#: power (:func:`plant.calibration.fit.heating_shapes`, session 49).
+DRIFT_SHAPES = ("warm-up", "heating")
 
 
 def _drift_candidate(ctx: _Ctx) -> FitResult:
     """The friction drift added to the current model (``ctx.cur``), fitted.
 
-    The second time column's time constant is the one of :data:`DRIFT_TIME_CONSTANTS` with the least
-    in-sample residual, refined between its grid neighbours; the exponential is kept only where it
-    predicts held-out time blocks better than the quadratic (``None``) at the run's family-wise
-    level, else the quadratic is returned (session 48, docs/calibration.md).
+    Warm-up shape (session 48): the second time column's time constant is the one of
+    :data:`DRIFT_TIME_CONSTANTS` with the least in-sample residual, refined between its grid
+    neighbours; the exponential is kept only where it predicts held-out time blocks better than the
+    quadratic (``None``) at the run's family-wise level, else the quadratic is used.
+
+    Heating shape (session 49): the same grid and refinement for the lags of the friction power. It
+    replaces the warm-up only where its in-sample residual is smaller and it predicts held-out time
+    blocks better, at the run's family-wise level, than the warm-up *with a free function of the
+    speed beside it* (the ``velocity_function`` nuisance): a lag of ``|dq|`` shorter than the
+    record's legs is a function of the speed, and without this test it stands in for the model's own
+    velocity error on clean records (fixed seeds 41, 42; docs/calibration.md, "Session 49"); on a
+    periodic motion the rival also holds the phase guard's lines (a function of the motion's phase).
     """
-    def fit_at(lam: float | None) -> FitResult:
+    def fit_at(lam: float | None, heating: bool = False) -> FitResult:
         new = ctx.cur.spec.copy()
         new.nuisance.append("friction_drift")
         new.drift_time_constant = lam
+        new.drift_heating = heating
         return fit_model(ctx.prep, new, refine=False)
 
-    fits = [fit_at(lam) for lam in DRIFT_TIME_CONSTANTS]
-    i = min(range(len(fits)), key=lambda k: fits[k].rss)
-    best = fits[i]
-    if DRIFT_TIME_CONSTANTS[i] is not None:
-        # refined between the grid's neighbours (log scale): the drift's shape left by a time constant
-        # off by the grid's step is a smooth residual other terms would take (session 48)
-        lo = math.log(DRIFT_TIME_CONSTANTS[max(i - 1, 0)])
-        hi = math.log(DRIFT_TIME_CONSTANTS[i + 1] if DRIFT_TIME_CONSTANTS[i + 1] is not None else 2 * DRIFT_TIME_CONSTANTS[i])
-        r = optimize.minimize_scalar(lambda x: fit_at(math.exp(x)).rss, bounds=(lo, hi), method="bounded",
-                                     options={"xatol": 0.01})
-        f = fit_at(math.exp(float(r.x)))
-        if f.rss < best.rss:
-            best = f
+    def refined(lams: tuple[float | None, ...], heating: bool) -> tuple[FitResult, dict]:
+        fits = {lam: fit_at(lam, heating) for lam in lams}
+        lam_b = min(fits, key=lambda k: fits[k].rss)
+        best = fits[lam_b]
+        if lam_b is not None:
+            # refined between the grid's neighbours (log scale): the drift's shape left by a time constant
+            # off by the grid's step is a smooth residual other terms would take (session 48)
+            j = DRIFT_TIME_CONSTANTS.index(lam_b)
+            lo = math.log(DRIFT_TIME_CONSTANTS[max(j - 1, 0)])
+            hi = math.log(DRIFT_TIME_CONSTANTS[j + 1] if DRIFT_TIME_CONSTANTS[j + 1] is not None else 2 * lam_b)
+            r = optimize.minimize_scalar(lambda x: fit_at(math.exp(x), heating).rss, bounds=(lo, hi),
+                                         method="bounded", options={"xatol": 0.01})
+            f = fit_at(math.exp(float(r.x)), heating)
+            if f.rss < best.rss:
+                best = f
+        return best, fits
+
+    z_need = single_test_z(ctx.cfg)
+    best, fits = refined(DRIFT_TIME_CONSTANTS, False)
     if best.spec.drift_time_constant is not None:
         # the exponential replaces the quadratic only on the loop's own evidence: it predicts held-out
         # time blocks better than the quadratic, at the run's family-wise level (as the Stribeck term,
         # select_stribeck). Where the drift is weak the in-sample residual hardly depends on the time
         # constant, and its minimum sits on a start-up transient (fixed seeds 55, 56; session 48).
-        quad = fits[DRIFT_TIME_CONSTANTS.index(None)]
+        quad = fits[None]
         gain, z = cv_compare(cv_losses(ctx.prep, quad.spec, ctx.cfg.k_folds),
                              cv_losses(ctx.prep, best.spec, ctx.cfg.k_folds))
-        if not predicts(gain, z, single_test_z(ctx.cfg)):
+        if not predicts(gain, z, z_need):
             best = quad
+    lams = tuple(lam for lam in DRIFT_TIME_CONSTANTS if lam is not None)
+    if "heating" in DRIFT_SHAPES and lams:
+        grid = {lam: fit_at(lam, True) for lam in lams}
+        if min(f.rss for f in grid.values()) < best.rss:
+            heat, _ = refined(lams, True)
+            rival = best.spec.copy()
+            rival.nuisance.append("velocity_function")
+            if ctx.guard is not None:
+                # on a periodic motion a lag of |dq| is also a function of the motion's phase (its rise and
+                # fall lag the speed's): the rival holds the phase guard's lines too (fixed seed 41, a sinusoid)
+                rival.nuisance.append("phase_function")
+                rival.phase_hz, rival.phase_harmonics, rival.phase_odd = ctx.guard
+            gain, z = cv_compare(cv_losses(ctx.prep, rival, ctx.cfg.k_folds),
+                                 cv_losses(ctx.prep, heat.spec, ctx.cfg.k_folds))
+            if predicts(gain, z, z_need):
+                best = heat
     return fit_model(ctx.prep, best.spec)
 
 
@@ -1782,15 +1826,18 @@ def _drift_time_constant_s(prep: Prepared, fit: FitResult) -> float | None:
 
 
 def _ool_entry(kind: str, share: float, gain: float, z: float, shift_s: float | None = None,
-               held_out: tuple[float, float] | None = None, time_constant_s: float | None = None) -> dict[str, Any]:
+               held_out: tuple[float, float] | None = None, time_constant_s: float | None = None,
+               heating: bool = False) -> dict[str, Any]:
     if kind == "friction_drift":
         shape = ("τ, τ²" if time_constant_s is None
-                 else f"τ and exp(−t/T), T ≈ {time_constant_s:.3g} s, the warm-up's time constant")
+                 else f"lags of |dq| and dq² (the friction power), T ≈ {time_constant_s:.3g} s, the heating's time constant"
+                 if heating else f"τ and exp(−t/T), T ≈ {time_constant_s:.3g} s, the warm-up's time constant")
         entry = {"domain": "time", "frequency": None, "share_pct": share, "unit": "Hz", "kind": "friction_drift",
                  "note": (f"friction levels drift over the record (Coulomb/viscous terms × {shape}; cross-validated gain "
                           f"{gain:.1f} %, z = {z:.1f}): a warm-up or temperature effect, outside the library")}
         if time_constant_s is not None:
             entry["time_constant_s"] = time_constant_s
+            entry["shape"] = "heating" if heating else "warm-up"
         return entry
     note = (f"the residual follows the jerk, i.e. the torque is shifted against the motion (cross-validated gain "
             f"{gain:.1f} %, z = {z:.1f}"
@@ -1958,7 +2005,8 @@ def run_loop(
         # a periodic entry describes the candidates against the current model: each step replaces them
         for kind in [k for k, u in undecided.items() if u["reason"] == UNDECIDED_PERIODIC]:
             del undecided[kind]
-        ctx = _Ctx(prep, cur, present, cfg, linear, span, vmax, two_way)
+        ctx = _Ctx(prep, cur, present, cfg, linear, span, vmax, two_way,
+                   guard=(guard_hz, guard_k, half_wave is not None) if phase_hz is not None else None)
         cands = _candidates(ctx)
         if not cands:
             break
@@ -2091,7 +2139,8 @@ def run_loop(
             ool.append(_ool_entry(chosen["kind"], chosen["explained_pct"], chosen["cv_gain_pct"], chosen["cv_z"],
                                   _delay_s(f) if chosen["kind"] == "delay" else None,
                                   (val_cur, chosen["val_rms"]) if "val_rms" in chosen else None,
-                                  _drift_time_constant_s(prep, f) if chosen["kind"] == "friction_drift" else None))
+                                  _drift_time_constant_s(prep, f) if chosen["kind"] == "friction_drift" else None,
+                                  f.spec.drift_heating))
             log.append(f"step {step}: out-of-library {chosen['kind']} wins (gain {chosen['cv_gain_pct']:.2f} %, z {chosen['cv_z']:.1f}); "
                        "kept in the working model only"
                        + (f" (and in the held-out prediction: rms {val_cur:.4g} → {chosen['val_rms']:.4g})"
