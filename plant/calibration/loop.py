@@ -776,6 +776,12 @@ def _beats_gear_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: L
     a gap in the declared gear against the same two-mass drive without one. If the gap predicts
     held-out blocks better at the run's level ``zc`` (a significance test: the alternative is a
     compliant mode, which a gap imitated in sessions 24 and 31), the candidate is not refused.
+
+    Where the current fit's Coulomb level is 0 (a rigid fit of a soft drive: the motor sees the friction
+    through the spring's wind-up, a ramp the step column cannot take, so the bound holds it at 0) the
+    spring's fixed point starts from the candidate's own Coulomb level (session 50; once per step and
+    kind in ``cache``). Before, the spring had no swing there and the candidate no test: blind records
+    20390 and 20442, soft drives without a gap, were named backlash.
     """
     k = cfg.gear_stiffness
     need = MIN_TRANSITION_COUNTS * prep.position_resolution
@@ -791,16 +797,30 @@ def _beats_gear_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: L
     cache = {} if cache is None else cache
     if "loss" not in cache:
         cache["loss"] = _gear_spring_losses(prep, cur, cfg, cache)
-    if cache["loss"] is None:
+    spring = cache["loss"]
+    seeded = ""
+    if spring is None and not _coulomb(cur) > 0 and fc_c > 0 and not cur.spec.geared:
+        # session 50: a rigid fit of a soft drive can put its Coulomb level at the bound 0 (the motor sees the
+        # friction through the spring's wind-up, a ramp the step column does not describe), and the spring then
+        # had no swing and the candidate no test. Its fixed point starts from the candidate's own level instead.
+        key = ("seeded", c["kind"])
+        if key not in cache:
+            cache[key] = _gear_spring_losses(prep, cur, cfg, cache, seed=fc_c)
+        spring = cache[key]
+        if spring is not None:
+            seeded = (f" (the current model's Coulomb level is 0, so the spring's was started from the candidate's, "
+                      f"{fc_c:.3g})")
+            c["spring_seed"] = fc_c
+    if spring is None:
         return None
-    loss, swing = cache["loss"]
+    loss, swing = spring
     g, z = cv_compare(loss, c["loss"])
     c["gain_over_spring_pct"], c["z_over_spring"] = g, z
     if g > 0:
         return None
-    why = (f"the declared gear spring (K = {k:.4g}, swing 2Fc/K = {swing:.3g}) in the current model predicts held-out "
-           f"blocks as well: the candidate's gain over it is {g:.2f} % (z = {z:.1f}) — the reversal transition is the "
-           "gear's wind-up")
+    why = (f"the declared gear spring (K = {k:.4g}, swing 2Fc/K = {swing:.3g}){seeded} in the current model predicts "
+           f"held-out blocks as well: the candidate's gain over it is {g:.2f} % (z = {z:.1f}) — the reversal transition "
+           "is the gear's wind-up")
     if c["kind"] != "backlash" or zc is None:
         return why
     # session 38: the massless play lost to the massless spring; ask the question with the load's inertia —
@@ -841,13 +861,18 @@ def _viscous_split_predicts(prep: Prepared, c: dict[str, Any], zc: float, cfg: L
             f"z ≥ {zc:.2f}) — no asymmetry the record can attribute")
 
 
-def _spring_coulomb(prep: Prepared, cur: FitResult, cfg: LoopConfig) -> float | None:
+def _spring_coulomb(prep: Prepared, cur: FitResult, cfg: LoopConfig, seed: float | None = None) -> float | None:
     """The Coulomb level [N·m or N] that sets the declared spring's swing ``2Fc/K``: the current
     fit's, refitted twice with the spring in the model (a fixed point); None without a declared
     stiffness, for a model whose friction already acts through it, or where the swing is under
-    :data:`MIN_TRANSITION_COUNTS` quanta (the spring is then a step, as the plain Coulomb column is)."""
+    :data:`MIN_TRANSITION_COUNTS` quanta (the spring is then a step, as the plain Coulomb column is).
+
+    ``seed`` [N·m or N]: where the current fit's Coulomb level is not positive, the fixed point starts
+    from it instead (session 50: a reversal candidate's own level, :func:`_beats_gear_spring`)."""
     k = cfg.gear_stiffness
     fc = _coulomb(cur)
+    if not fc > 0 and seed is not None:
+        fc = seed
     if cur.spec.geared or not (k and fc > 0) or 2.0 * fc / k < MIN_TRANSITION_COUNTS * prep.position_resolution:
         return None
     for _ in range(2):   # the Coulomb level that sets the swing, refitted with the spring (fixed point)
@@ -866,10 +891,11 @@ def _step_spring_coulomb(prep: Prepared, cur: FitResult, cfg: LoopConfig, cache:
 
 
 def _gear_spring_losses(prep: Prepared, cur: FitResult, cfg: LoopConfig,
-                        cache: dict[str, Any]) -> tuple[np.ndarray, float] | None:
+                        cache: dict[str, Any], seed: float | None = None) -> tuple[np.ndarray, float] | None:
     """CV prediction errors of the current model with the declared spring in it, and the spring's
-    swing ``2Fc/K``; None where :func:`_spring_coulomb` is None."""
-    fc = _step_spring_coulomb(prep, cur, cfg, cache)
+    swing ``2Fc/K``; None where :func:`_spring_coulomb` is None. With ``seed`` the spring's Coulomb
+    level is started from it (:func:`_spring_coulomb`), not taken from the step's ``cache``."""
+    fc = _step_spring_coulomb(prep, cur, cfg, cache) if seed is None else _spring_coulomb(prep, cur, cfg, seed)
     if fc is None:
         return None
     spring = dataclasses.replace(cur.spec.copy(), gear_stiffness=cfg.gear_stiffness, spring_coulomb=fc)
@@ -1346,8 +1372,10 @@ def _drift_candidate(ctx: _Ctx) -> FitResult:
         new.drift_heating = heating
         return fit_model(ctx.prep, new, refine=False)
 
-    def refined(lams: tuple[float | None, ...], heating: bool) -> tuple[FitResult, dict]:
-        fits = {lam: fit_at(lam, heating) for lam in lams}
+    def refined(lams: tuple[float | None, ...], heating: bool,
+                fits: dict[float | None, FitResult] | None = None) -> tuple[FitResult, dict]:
+        # ``fits``: the grid's fits when the caller already has them (the heating's, compared first)
+        fits = fits if fits is not None else {lam: fit_at(lam, heating) for lam in lams}
         lam_b = min(fits, key=lambda k: fits[k].rss)
         best = fits[lam_b]
         if lam_b is not None:
@@ -1379,7 +1407,7 @@ def _drift_candidate(ctx: _Ctx) -> FitResult:
     if "heating" in DRIFT_SHAPES and lams:
         grid = {lam: fit_at(lam, True) for lam in lams}
         if min(f.rss for f in grid.values()) < best.rss:
-            heat, _ = refined(lams, True)
+            heat, _ = refined(lams, True, grid)
             rival = best.spec.copy()
             rival.nuisance.append("velocity_function")
             if ctx.guard is not None:
@@ -2161,7 +2189,9 @@ def run_loop(
               + (f" Won against: {won}." if won else "")
               + (f" Not in the competition (refused by a rule or not significant; see the rejected candidates): "
                  f"{out_of_play}." if out_of_play else "")
-              + (f" It also predicts better than the declared gear spring alone (gain {chosen['gain_over_spring_pct']:.1f} %, z = {chosen['z_over_spring']:.1f}; a point estimate is the test here)."
+              + (f" It also predicts better than the declared gear spring alone (gain {chosen['gain_over_spring_pct']:.1f} %, z = {chosen['z_over_spring']:.1f}; a point estimate is the test here"
+                 + (f"; the spring's Coulomb level started from the candidate's, {chosen['spring_seed']:.3g}, as the current "
+                    "model's is 0" if "spring_seed" in chosen else "") + ")."
                  if "gain_over_spring_pct" in chosen else "")
               + (f" It still predicts with the Stribeck term ({chosen['stribeck_note']}) in both models (gain "
                  f"{chosen['gain_with_stribeck_pct']:.1f} %, z = {chosen['z_with_stribeck']:.1f}): a transition, not "
