@@ -83,7 +83,7 @@ def _named(rec: Record, stiffness: float) -> list[str]:
 
 def test_the_spring_is_built_from_a_seed_where_the_rigid_coulomb_is_zero():
     """On the file's soft drive the rigid baseline's Coulomb level is 0: without a seed no spring (the
-    hole), with a candidate's level as the seed a positive fixed point near the drive's own."""
+    hole), with a candidate's level as the seed a positive fixed point."""
     rec, stiffness = _soft_drive_record(0)
     prep = prepare(rec)
     cfg = dataclasses.replace(loop.LoopConfig(), gear_stiffness=stiffness)

@@ -865,7 +865,8 @@ def _viscous_split_predicts(prep: Prepared, c: dict[str, Any], zc: float, cfg: L
 #: The declared spring's Coulomb level (:func:`_spring_coulomb`) is refitted until it moves by less than this
 #: fraction of itself (a numerical tolerance of the fixed point, not a threshold on the data; session 50)
 SPRING_COULOMB_RTOL = 1e-3
-#: ... or at most this many times (on the records measured in session 50 the level converged in under 12)
+#: ... or at most this many times (a guard against a slow or oscillating iteration; on session 50's probe
+#: record it converged in about ten)
 SPRING_COULOMB_MAX_REFITS = 40
 
 
@@ -878,9 +879,11 @@ def _spring_coulomb(prep: Prepared, cur: FitResult, cfg: LoopConfig, seed: float
 
     Session 50: iterated to convergence (:data:`SPRING_COULOMB_RTOL`), not twice. A rigid fit of a
     soft drive sees the friction through the spring's wind-up, a ramp the step column takes only in
-    part, so its Coulomb level can be far below the drive's (a record written in
-    ``tests/test_calibration_spring_seed.py``: 0.037 against the fixed point 0.464 N·m, which two
-    refits left at 0.337), and the spring then stood for less friction than the drive has.
+    part, so its Coulomb level can be far below the level the spring model settles on (a record
+    written in ``tests/test_calibration_spring_seed.py``: 0.037 against the fixed point 0.464 N·m,
+    which two refits left at 0.337), and the spring in the test then stood for less friction than it
+    describes. The fixed point is the level the massless spring needs to describe the record, not an
+    estimate of the drive's Coulomb friction (0.31 N·m on that record).
 
     ``seed`` [N·m or N]: where the current fit's Coulomb level is not positive (the bound holds it at 0,
     itself a fixed point of a spring without swing) the refits start from it instead (a reversal
