@@ -29,6 +29,8 @@ def test_blind_632_one_way_motion_names_no_asymmetry(tmp_path, monkeypatch):
     n_pos, n_neg = loop.both_directions(prep)
     assert min(n_pos, n_neg) < loop.MIN_SAMPLES_PER_DIRECTION <= max(n_pos, n_neg), "precondition: one-way motion"
     monkeypatch.setattr(loop, "MIN_SAMPLES_PER_DIRECTION", 0)
+    # the rule on its own: since session 51 the share floor would also refuse this 0.03 % asymmetry
+    monkeypatch.setattr(loop, "_below_share_floor", lambda c, cfg: None)
     without = {a.kind for a in loop.run_loop(prep).accepted}
     assert "asymmetric_friction" in without, "precondition: without the rule the asymmetry is named"
     monkeypatch.undo()
