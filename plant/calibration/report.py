@@ -5,8 +5,9 @@
 rms_after, variance_explained_pct, evidence}``), ``final {params, rms, relative_error_pct}``,
 ``validation {rms_before, rms_after, rms_after_library_only}`` (with a held-out record), ``unexplained`` (list of
 ``{domain, frequency, share_pct}``), ``model_file``. Extra keys: ``units``, ``uncertainty``,
-``significance`` (the rule), ``stribeck`` (the decision), ``rejected`` (candidates turned down and
-why), ``undecided`` (effects that predict better but that the record cannot decide: reversal
+``significance`` (the rule), ``stribeck`` (the decision), ``rejected`` (candidates turned down:
+``reason``, the first rule that refused it, and ``also``, the other rules of the record's geometry
+that refuse it too; ``loop._static_refusals``), ``undecided`` (effects that predict better but that the record cannot decide: reversal
 effects on too few reversals, with the number it would need, and terms the phase guard refuses on a
 periodic motion; ``reason``, ``note``), ``closed_loop`` (EMPS records), ``log``.
 
@@ -476,7 +477,8 @@ def _markdown(r: dict[str, Any]) -> str:
               "inside the spring, its width the gap ('Session 35')."]
     L += ["", "## Candidates rejected", ""]
     for x in r["rejected"]:
-        L.append(f"- step {x['step']}: {x['kind']} — {x['reason']}")
+        L.append(f"- step {x['step']}: {x['kind']} — {x['reason']}"
+                 + "".join(f"; also: {a}" for a in x.get("also", [])))
     L += ["", "## Uncertainty caveat", "", r["uncertainty"]["note"] + ".", ""]
     L += [f"Calibrated plant parameter file: `{r['model_file']}`.", ""]
     if r.get("plots"):
