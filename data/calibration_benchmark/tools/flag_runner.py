@@ -6,9 +6,21 @@ elsewhere the two runs are the same computation). With --two-mass only the recor
 hidden set holds backlash or a compliant mode are run (the generators' `plan()`).
 
 Usage (from the tree whose loop is to be run):
-    python flag_runner.py PHRASE [--two-mass] OUT.json GEN:LO-HI ...
+    python flag_runner.py (PHRASE | --function NAME) [--two-mass] OUT.json (GEN:LO-HI ... | --seeds-from FILE)
 Output: one line per record (generator, seed, hidden, named, OK/BAD, "flag" where PHRASE occurred)
 and OUT.json, session 24's fields plus ``flag``.
+
+Since session 52: PHRASE is also searched in ``unexplained`` and ``undecided``; ``--function NAME``
+flags instead where ``plant.calibration.loop.NAME`` returned something other than None (a rule that
+refused, as sessions 49-51's runners did by hand: `session49_heating_drift/heating_runner.py`,
+`session50_spring_seed/spring_seed_runner.py`, `session51_share_floor/floor_runner.py`; ``n_flagged_calls``
+counts the calls). In a tree without NAME (main, before the change) the flag is always false. Since
+session 52 the loop evaluates its geometry rules (``_static_refusals``: the share floor, resolution,
+stick, alias, inertia) for every candidate with a positive gain, not only for those that passed the
+rank test, so flagging one of them flags more records than the rule acts on: safe (main then runs
+more records), not exact.
+``--seeds-from FILE`` runs the (generator, seed) pairs of a JSON list of objects with ``generator``
+and ``seed`` (e.g. the change's flagged records) instead of ranges.
 
 Replaces session 38's three near-copies (`session38_held_inertia/runner.py` with PHRASE
 "inertia held at", `session38_line_alias/runner.py` with "the direction-dependent part of the
@@ -26,15 +38,36 @@ import runner as base
 TWO_MASS = {"backlash", "compliant_mode"}
 PHRASE = None
 TWO_MASS_ONLY = False
+CALLS = {"n": 0}   # --function: calls of the wrapped function that returned something, this record
 _cal = base.calibrate_record
 
 
 def calibrate_record(gen, arg):
     mod, r, rep, wall = _cal(gen, arg)
     # the report's log too since session 42 (its rule's phrase is a log line: where it acts, nothing else
-    # need change in the report)
-    calibrate_record.flag = PHRASE in json.dumps([rep.get("rejected", []), rep.get("effects", []), rep.get("log", [])])
+    # need change in the report); unexplained and undecided since session 52
+    calibrate_record.flag = PHRASE is not None and PHRASE in json.dumps(
+        [rep.get(k, []) for k in ("rejected", "effects", "log", "unexplained", "undecided")])
     return mod, r, rep, wall
+
+
+def wrap_function(name):
+    """Wrap ``plant.calibration.loop.<name>`` so that each call returning something other than None counts
+    in ``CALLS``; the loop looks its functions up in the module at call time, so the wrapper is what runs.
+    False if the tree has no such function."""
+    from plant.calibration import loop
+    if not hasattr(loop, name):
+        return False
+    fn = getattr(loop, name)
+
+    def counted(*a, **k):
+        out = fn(*a, **k)
+        if out is not None:
+            CALLS["n"] += 1
+        return out
+
+    setattr(loop, name, counted)
+    return True
 
 
 base.calibrate_record = calibrate_record
@@ -46,8 +79,10 @@ def one(job):
         mod = importlib.import_module(GEN[gen])
         if not TWO_MASS & set(mod.plan()[seed % len(mod.plan())]):
             return None
+    CALLS["n"] = 0
     o = base.one((gen, str(seed)))
-    o["flag"] = bool(getattr(calibrate_record, "flag", False))
+    o["flag"] = bool(getattr(calibrate_record, "flag", False)) or CALLS["n"] > 0
+    o["n_flagged_calls"] = CALLS["n"]
     return o
 
 
@@ -55,12 +90,24 @@ if __name__ == "__main__":
     args = sys.argv[1:]
     if len(args) < 3:
         sys.exit(__doc__)
-    PHRASE = args.pop(0)
+    if args[0] == "--function":
+        args.pop(0)
+        name = args.pop(0)
+        print(f"flag: calls of loop.{name} that returned something" if wrap_function(name)
+              else f"flag: loop.{name} does not exist in this tree, the flag is always false", flush=True)
+    else:
+        PHRASE = args.pop(0)
     if args[0] == "--two-mass":
         TWO_MASS_ONLY = True
         args.pop(0)
     out_path, specs = args[0], args[1:]
-    out = map_jobs(one, seed_jobs(specs), chunksize=2)
+    if specs[:1] == ["--seeds-from"]:
+        if len(specs) != 2:
+            sys.exit("--seeds-from takes one FILE (a JSON list of objects with generator and seed)")
+        jobs = [(o["generator"], int(o["seed"])) for o in json.load(open(specs[1]))]
+    else:
+        jobs = seed_jobs(specs)
+    out = map_jobs(one, jobs, chunksize=2)
     for o in out:
         print(o["generator"], o["seed"], o["hidden"], o["named"], "OK " if o["exact"] else "BAD", "flag" if o["flag"] else "",
               flush=True)
