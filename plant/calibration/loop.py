@@ -672,8 +672,7 @@ def constant_speed_runs(prep: Prepared) -> tuple[list[tuple[float, float]], floa
     q = position_quantum(rec.position, prep.position_resolution)
     if q is None:
         return [], None
-    n0 = rec.position.size - prep.t.size   # prepare drops samples at the start only
-    t, dq, x = prep.t, prep.dq, rec.position[n0:]
+    t, dq, x = prep.t, prep.dq, rec.position[prep.i0:prep.i0 + prep.t.size]   # the samples prepare kept
     vmax = float(np.percentile(np.abs(dq), 99))
     if not vmax > 0:
         return [], q
