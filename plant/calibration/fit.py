@@ -7,8 +7,7 @@ script of the benchmark), generalised:
    (cut-off ``cutoff_hz``, default ``fs/10`` — 100 Hz at EMPS's 1 kHz) and differentiated twice
    by central differences (``numpy.gradient``) to give velocity and acceleration.
 2. The first ``n_border = 49`` samples are dropped (filter/difference edge effects). Outside the
-   EMPS benchmark, the last 49 are dropped too (the same edge effects; session 52, first tried in
-   session 40), and decimated samples at standstill as well (see :func:`prepare`).
+   EMPS benchmark, decimated samples at standstill are dropped as well (see :func:`prepare`).
 3. The regressor columns (``ddq``, ``dq``, ``sign(dq)``, ``1`` and any effect columns) are built at
    the full rate and every column *and* the measured torque are decimated in parallel by
    ``decimate`` (default 10: an order-8 Chebyshev-I low-pass at 0.8 of the new Nyquist frequency,
@@ -112,8 +111,6 @@ class Prepared:
     coulomb: np.ndarray | None = None
     rest_mask: np.ndarray | None = None
     hunting: list[tuple[float, float]] = dataclasses.field(default_factory=list)
-    #: index in ``record`` of the first full-rate sample kept (``t[0] == record.t_s[i0]``; session 52)
-    i0: int = 0
 
     def dec(self, x: np.ndarray) -> np.ndarray:
         """Decimate full-rate column(s) (axis 0) like Matlab ``decimate`` (IIR, zero phase) and keep
@@ -182,7 +179,6 @@ def prepare(
     cutoff_hz: float | None = None,
     decimate: int | None = None,
     n_border: int = N_BORDER,
-    n_border_end: int | None = None,
     exclude_standstill: bool | None = None,
     standstill_frac: float = STANDSTILL_FRAC,
     exclude_hunting: bool = True,
@@ -208,12 +204,6 @@ def prepare(
     ≤ 1 GB); the position resolution is taken from the raw record first.
     n_border : int
         Samples dropped at the start (benchmark: 49).
-    n_border_end : int, optional
-        Samples dropped at the end; default ``n_border``, except for EMPS records (0: the benchmark
-        procedure drops the first 49 only). The position filter (filtfilt) and the two central
-        differences have the same edge effects at both ends; kept, the end's acceleration errors
-        (up to 100× the residual elsewhere where the record ends in motion) weigh on the last
-        cross-validation fold of every candidate (docs/calibration.md, "Session 40", "Session 52").
     exclude_standstill : bool, optional
         Drop decimated samples at rest (``|dq| < standstill_frac × 95th-percentile speed``): at
         rest the friction can be anything between the static limits, so ``sign(dq)`` of a
@@ -260,15 +250,13 @@ def prepare(
         cutoff_hz = fs / 10.0
     if not 0 < cutoff_hz < fs / 2:
         raise ValueError(f"cutoff_hz={cutoff_hz} must lie between 0 and the Nyquist frequency {fs / 2:g} Hz")
-    if n_border_end is None:
-        n_border_end = 0 if record.extra.get("format") == "emps" else n_border
-    if len(record) < n_border + n_border_end + 20 * decimate:
+    if len(record) < n_border + 20 * decimate:
         raise ValueError(f"record {record.name!r} too short ({len(record)} samples)")
     b, a = signal.butter(4, cutoff_hz / (fs / 2))
     qf = signal.filtfilt(b, a, record.position, padtype="odd", padlen=3 * (max(len(a), len(b)) - 1))
     dq = np.gradient(qf, dt)
     ddq = np.gradient(dq, dt)
-    sl = slice(n_border, len(record) - n_border_end)
+    sl = slice(n_border, None)
     t, q, dq, ddq, y = record.t_s[sl], qf[sl], dq[sl], ddq[sl], record.torque[sl]
     t_dec = _decimate_times(t, decimate)
     q_dec, dq_dec, y_dec = (_decimate(x, decimate) for x in (q, dq, y))
@@ -309,7 +297,7 @@ def prepare(
             keep = np.flatnonzero(mask)
             t_dec, q_dec, dq_dec, y_dec = t_dec[keep], q_dec[keep], dq_dec[keep], y_dec[keep]
     return Prepared(
-        record=record, t=t, q=q, dq=dq, ddq=ddq, y=y, dt_s=dt, decim=decimate, cutoff_hz=cutoff_hz, i0=n_border,
+        record=record, t=t, q=q, dq=dq, ddq=ddq, y=y, dt_s=dt, decim=decimate, cutoff_hz=cutoff_hz,
         t_dec=t_dec, q_dec=q_dec, dq_dec=dq_dec, y_dec=y_dec, keep=keep, n_standstill=n_still,
         position_resolution=resolution, coulomb=coulomb, rest_mask=rest_mask, hunting=hunting,
     )

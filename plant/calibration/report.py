@@ -2,7 +2,8 @@
 
 :func:`calibrate` is what ``schmidt-fil calibrate`` calls. ``report.json`` keys (issue 3):
 ``baseline {params, rms, relative_error_pct}``, ``effects`` (ordered list of ``{kind, params,
-rms_after, variance_explained_pct, evidence}``), ``final {params, rms, relative_error_pct}``,
+rms_after, variance_explained_pct, evidence, competitors}``; a competitor that passed the rule too
+carries the winner's head-to-head ``head_to_head_gain_pct``, ``head_to_head_z`` and ``separated``), ``final {params, rms, relative_error_pct}``,
 ``validation {rms_before, rms_after, rms_after_library_only}`` (with a held-out record), ``unexplained`` (list of
 ``{domain, frequency, share_pct}``), ``model_file``. Extra keys: ``units``, ``uncertainty``,
 ``significance`` (the rule), ``stribeck`` (the decision), ``rejected`` (candidates turned down:
@@ -209,6 +210,15 @@ def _closed_loop(record: Record, result: LoopResult) -> dict[str, Any] | None:
     return out
 
 
+def _not_told_apart(effect: dict[str, Any], named: set[str]) -> str:
+    """`` (not told apart from X by this record)`` where a library competitor that passed the rule too is
+    not beaten head to head at the run's level (``competitors[i]["separated"]``, session 52) and is not
+    itself among the ``named`` kinds (then both are in the model, not alternatives), else ``""``: the
+    conclusion then says that the name is the larger gain's, not a decision of the record."""
+    close = [c["kind"] for c in effect.get("competitors", []) if c.get("separated") is False and c["kind"] not in named]
+    return f" (not told apart from {' or '.join(close)} by this record)" if close else ""
+
+
 def calibrate(
     record_path: str | Path,
     out_dir: str | Path,
@@ -345,7 +355,7 @@ def calibrate(
         "drive_periods": list(cfg.drive_periods),
         "gear_stiffness": cfg.gear_stiffness,
         "conclusion": (
-            f"{len(effects)} effect(s) added: " + ", ".join(e["kind"] for e in effects)
+            f"{len(effects)} effect(s) added: " + ", ".join(e["kind"] + _not_told_apart(e, {x["kind"] for x in effects}) for e in effects)
             if effects else "no significant improvement: no effect added"
         ),
         "preprocessing": {

@@ -329,7 +329,7 @@ def reversal_dwell_swings(prep) -> np.ndarray:
     res_q = float(prep.position_resolution)
     if dq.size < 10 or not res_q > 0:
         return np.zeros(0)
-    pos = np.asarray(prep.record.position, dtype=float)[prep.i0:prep.i0 + dq.size]   # the samples prepare kept
+    pos = np.asarray(prep.record.position, dtype=float)[-dq.size:]
     dt = prep.dt_s
     v_still = STANDSTILL_FRAC * float(np.percentile(np.abs(dq), 95))
     mov = np.abs(dq) >= v_still
