@@ -2028,7 +2028,8 @@ def _static_refusals(c: dict[str, Any], cur: FitResult, cfg: LoopConfig, prep: P
     kind, the inertia (:func:`_replaces_inertia`).
 
     These rules read only the candidate's fit and figures the run computed once (no refit), so all of
-    them are evaluated for every candidate; the first is the refusal's reason, exactly as when they
+    them are evaluated for every candidate with a positive held-out gain (one without has nothing to
+    obstruct; :func:`run_loop` does not call this for it); the first is the refusal's reason, exactly as when they
     were chained, and ``rejected``'s ``also`` lists the others. A user then sees every obstacle at
     once: a backlash refused both for its share and for a width under the resolution needs a finer
     encoder, not a longer record. The tests that cost refits (the Stribeck term, the declared spring,
