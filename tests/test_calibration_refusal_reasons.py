@@ -44,6 +44,9 @@ def test_every_refusal_is_listed_and_the_first_is_the_reason(report_20487):
         assert any("inertial torque" in a for a in r["also"]), r
         assert any("constant-speed time" in a for a in r["also"]), r
         assert r["reason"] not in r["also"]
+        # the same rules by name (session 53): the share floor first, then the line's resolution and the alias
+        assert r["rules"] == ["share_floor", "line_resolution", "count_alias"], r
+        assert len(r["rules"]) == len(r["also"]) + 1
     # the rank test's refusal says which way the mean gain went: a positive gain that is not significant is
     # not "does not predict better" (the 5.7 % ripple near 22.4 Hz, z = 3.5 against 3.54)
     not_sig = [r for r in rep["rejected"] if r["reason"].startswith("predicts held-out blocks better on average")]
@@ -80,9 +83,10 @@ def test_the_list_keeps_the_chain_order():
 
     import numpy as np
     out = loop._static_refusals(c, Fit(), loop.LoopConfig(), Prep(), np.zeros(0), 0.01, 1.0, [], None)
-    assert len(out) == 2
-    assert out[0].startswith("predicts only 1.00 %")
-    assert out[1].startswith("backlash width 1e-09 is below 10 position quanta")
+    assert [rule for rule, _ in out] == ["share_floor", "resolution"]
+    assert out[0][1].startswith("predicts only 1.00 %")
+    assert out[1][1].startswith("backlash width 1e-09 is below 10 position quanta")
+    assert all(rule in loop.GEOMETRY_RULES for rule, _ in out)
     c["cv_gain_pct"] = 5.0
-    assert loop._static_refusals(c, Fit(), loop.LoopConfig(), Prep(), np.zeros(0), 0.01, 1.0, [], None)[0].startswith(
+    assert loop._static_refusals(c, Fit(), loop.LoopConfig(), Prep(), np.zeros(0), 0.01, 1.0, [], None)[0][1].startswith(
         "backlash width")

@@ -79,7 +79,8 @@ from plant.effects import EFFECT_KINDS, Effect, build_effect
 
 __all__ = ["LoopConfig", "AcceptedEffect", "LoopResult", "fit_baseline", "run_loop", "delta_bic", "cv_compare", "min_events",
            "KINDS", "backlash_gap", "check_stiffness", "friction_levels", "periodic_motion_hz", "periodic_motion",
-           "motion_harmonics", "PERIODIC_MAX_HARMONICS", "UNDECIDED_REVERSALS", "UNDECIDED_PERIODIC"]
+           "motion_harmonics", "PERIODIC_MAX_HARMONICS", "UNDECIDED_REVERSALS", "UNDECIDED_PERIODIC",
+           "rank_batches", "rank_batches_needed", "GEOMETRY_RULES"]
 
 #: The effect kinds the loop may name: exactly the :mod:`plant.effects` registry.
 KINDS: tuple[str, ...] = tuple(EFFECT_KINDS)
@@ -257,6 +258,16 @@ def cv_losses_xy(names: list[str], X: np.ndarray, y: np.ndarray, k_folds: int = 
     return err
 
 
+#: Fewest samples in a batch of the rank test (:func:`cv_compare`): longer than the residual's correlation.
+BATCH_MIN_SAMPLES = 25
+
+
+def rank_batches(n_samples: int, n_batches: int = 40) -> int:
+    """Batches of :func:`cv_compare`'s rank test on ``n_samples`` compared samples: ``n_batches``, fewer
+    where a batch would hold under :data:`BATCH_MIN_SAMPLES` (the test is not made below 5)."""
+    return int(min(n_batches, n_samples // BATCH_MIN_SAMPLES))
+
+
 def cv_compare(err0: np.ndarray, err1: np.ndarray, n_batches: int = 40) -> tuple[float, float]:
     """Predictive gain of model 1 over model 0 from their CV prediction errors: (gain in % of the CV
     mean squared error, z statistic).
@@ -283,7 +294,7 @@ def cv_compare(err0: np.ndarray, err1: np.ndarray, n_batches: int = 40) -> tuple
     loss0, loss1 = err0**2, err1**2
     d = loss0 - loss1
     m0 = float(np.mean(loss0))
-    B = int(min(n_batches, d.size // 25))
+    B = rank_batches(d.size, n_batches)
     if m0 <= 0 or B < 5:
         return 0.0, 0.0
     edges = np.linspace(0, d.size, B + 1).astype(int)
@@ -327,6 +338,42 @@ def min_events(alpha: float, n_tests: int) -> int:
     (backlash on development record 1048 passed with 11); a refused one is reported as undecided.
     """
     return int(math.ceil(math.log2(max(n_tests, 1) / alpha)))
+
+
+def rank_batches_needed(zc: float, n_batches: int = 40) -> int | None:
+    """Fewest batches that must hold a gain for :func:`cv_compare`'s rank test to reach ``zc`` when the
+    gain lies only there and every other batch is no better than chance (session 53).
+
+    The ``k`` batches that hold the gain then carry the ``k`` largest ranks, all improvements, and the
+    others contribute half their ranks to ``W⁺`` on average: ``z(k) = (Σ_{r=n−k+1}^{n} r + ½·Σ_{r=1}^{n−k} r
+    − n(n+1)/4) / sqrt(n(n+1)(2n+1)/24)``. With 40 batches and the loop's ``zc`` ≈ 3.59 this is 17
+    (z = 3.66; 16 give 3.49) — more than :func:`min_events` (13), the floor of any sign-symmetric test,
+    because the batches without a reversal dilute the ranks. It is what a record needs for a reversal
+    effect whose gain lies at its reversals (one reversal per batch, so spread over the record); where
+    those batches lose a little, more (used independent 15124: about 24, docs/calibration.md,
+    "Session 52").
+
+    Parameters
+    ----------
+    zc : float
+        Critical z of the test.
+    n_batches : int
+        Batches of the rank test (40, fewer on a short record: :func:`cv_compare`).
+
+    Returns
+    -------
+    int or None
+        ``k``; None when even ``n_batches`` batches do not reach ``zc``.
+    """
+    n = int(n_batches)
+    if n < 1:
+        return None
+    mean, sd = n * (n + 1) / 4.0, math.sqrt(n * (n + 1) * (2 * n + 1) / 24.0)
+    for k in range(1, n + 1):
+        w_plus = (n * (n + 1) - (n - k) * (n - k + 1)) / 2.0 + (n - k) * (n - k + 1) / 4.0
+        if (w_plus - mean) / sd >= zc:
+            return k
+    return None
 
 
 def fit_baseline(prep: Prepared, cfg: LoopConfig | None = None) -> tuple[FitResult, dict[str, Any]]:
@@ -2020,12 +2067,13 @@ def _undecided_periodic(undecided: dict[str, dict[str, Any]], c: dict[str, Any],
 
 
 def _static_refusals(c: dict[str, Any], cur: FitResult, cfg: LoopConfig, prep: Prepared, dwell_swings: np.ndarray,
-                     speed_typ: float, span: float, alias_runs: list[tuple[float, float]], alias_q: float | None) -> list[str]:
+                     speed_typ: float, span: float, alias_runs: list[tuple[float, float]],
+                     alias_q: float | None) -> list[tuple[str, str]]:
     """Every rule of the record's geometry that refuses candidate ``c``, in the order the loop applies
     them (session 52): the share floor (:func:`_below_share_floor`), the resolution limits
     (:func:`_resolved`, :func:`_line_resolved`), the stick at the reversals (:func:`_sticks_at_reversals`,
     reversal kinds), the count-rate alias (:func:`_count_alias`) — library kinds only — and, for every
-    kind, the inertia (:func:`_replaces_inertia`).
+    kind, the inertia (:func:`_replaces_inertia`); each by its name in :data:`GEOMETRY_RULES`.
 
     These rules read only the candidate's fit and figures the run computed once (no refit), so all of
     them are evaluated for every candidate with a positive held-out gain (one without has nothing to
@@ -2056,17 +2104,26 @@ def _static_refusals(c: dict[str, Any], cur: FitResult, cfg: LoopConfig, prep: P
 
     Returns
     -------
-    list of str
-        The reasons, empty if no such rule refuses the candidate.
+    list of (str, str)
+        ``(rule, reason)`` for each rule that refuses the candidate (rule from :data:`GEOMETRY_RULES`),
+        empty if none does.
     """
-    out: list[str | None] = []
+    out: list[tuple[str, str | None]] = []
     if c["kind"] in EFFECT_KINDS:
-        out += [_below_share_floor(c, cfg), _resolved(c["fit"], prep.position_resolution),
-                _sticks_at_reversals(c["fit"], dwell_swings, prep.position_resolution) if c["group"] == "reversal" else None,
-                _line_resolved(c["fit"], c["kind"], c["slot"], prep.position_resolution, speed_typ, cfg.drive_periods, span),
-                _count_alias(c["fit"], c["kind"], c["slot"], alias_runs, alias_q, 1.0 / prep.dt_s)]
-    out.append(_replaces_inertia(cur, c["fit"]))
-    return [r for r in out if r]
+        out += [("share_floor", _below_share_floor(c, cfg)),
+                ("resolution", _resolved(c["fit"], prep.position_resolution)),
+                ("stick_at_reversals", _sticks_at_reversals(c["fit"], dwell_swings, prep.position_resolution)
+                 if c["group"] == "reversal" else None),
+                ("line_resolution", _line_resolved(c["fit"], c["kind"], c["slot"], prep.position_resolution, speed_typ,
+                                                   cfg.drive_periods, span)),
+                ("count_alias", _count_alias(c["fit"], c["kind"], c["slot"], alias_runs, alias_q, 1.0 / prep.dt_s))]
+    out.append(("inertia", _replaces_inertia(cur, c["fit"])))
+    return [(rule, why) for rule, why in out if why]
+
+
+#: The rules of :func:`_static_refusals`, in the order the loop applies them; ``rejected[i]["rules"]`` names
+#: those that refuse a candidate (session 53: the names let a tool count refusals without matching words).
+GEOMETRY_RULES = ("share_floor", "resolution", "stick_at_reversals", "line_resolution", "count_alias", "inertia")
 
 
 def _evaluate(prep: Prepared, c: dict[str, Any], loss_cur: np.ndarray, cfg: LoopConfig) -> None:
@@ -2116,8 +2173,9 @@ def run_loop(
     if not two_way:
         rejected.append({"kind": "asymmetric_friction", "step": 1, "cv_gain_pct": None, "cv_z": None, "explained_pct": None,
                          "reason": (f"not tried: the axis moves one way only ({n_pos} moving samples with w > 0, {n_neg} with "
-                                    f"w < 0; {MIN_SAMPLES_PER_DIRECTION} needed on each side): the other direction's friction "
-                                    "is not in the record"), "also": []})
+                                    f"w < 0, moving meaning faster than {100 * res.MOVING_FRAC:.0f} % of the 95th-percentile speed; "
+                                    f"{MIN_SAMPLES_PER_DIRECTION} needed on each side): the other direction's friction "
+                                    "is not in the record"), "also": [], "rules": []})
     # the guard's harmonics: as many as the motion's velocity needs (session 25), at least PHASE_HARMONICS
     phase_k = motion_harmonics(prep, phase_hz) if phase_hz is not None else PHASE_HARMONICS
     # the guard's lines: the odd harmonics of the motion's own fundamental on a half-wave symmetric motion
@@ -2166,6 +2224,10 @@ def run_loop(
         passing = []
         for c in cands:
             why = None
+            # every rule of the record's geometry that refuses a candidate with a gain, in the order they are
+            # applied; the first is the reason, the others are reported beside it (session 52), by name too
+            static = (_static_refusals(c, cur, cfg, prep, dwell_swings, speed_typ, span, alias_runs, alias_q)
+                      if c["cv_gain_pct"] > 0 else [])
             if not predicts(c["cv_gain_pct"], c["cv_z"], zc):
                 why = (f"does not predict held-out blocks better: gain {c['cv_gain_pct']:.2f} %, z = {c['cv_z']:.1f} "
                        f"(needs > 0 and z ≥ {zc:.2f})" if c["cv_gain_pct"] <= 0 else
@@ -2176,16 +2238,13 @@ def run_loop(
                        "in too few of the rank test's batches)")
                 if (c["group"] == "reversal" and c["cv_gain_pct"] > 0 and n_rev < k_min
                         and c["cv_gain_pct"] > undecided.get(c["kind"], {}).get("cv_gain_pct", 0.0)
-                        and _sticks_at_reversals(c["fit"], dwell_swings, prep.position_resolution) is None):
+                        and all(rule != "stick_at_reversals" for rule, _ in static)):
                     undecided[c["kind"]] = {"kind": c["kind"], "reason": UNDECIDED_REVERSALS, "step": step,
                                             "cv_gain_pct": c["cv_gain_pct"], "cv_z": c["cv_z"],
-                                            "n_reversals": n_rev, "min_reversals": k_min}
-            # every rule of the record's geometry that refuses a candidate with a gain, in the order they are
-            # applied; the first is the reason, the others are reported beside it (session 52)
-            static = (_static_refusals(c, cur, cfg, prep, dwell_swings, speed_typ, span, alias_runs, alias_q)
-                      if c["cv_gain_pct"] > 0 else [])
+                                            "n_reversals": n_rev, "min_reversals": k_min,
+                                            "advised_reversals": rank_batches_needed(zc, rank_batches(prep.y_dec.size))}
             if why is None and static:
-                why = static[0]
+                why = static[0][1]
             if why is None and c["kind"] == "asymmetric_friction":
                 why = _viscous_split_predicts(prep, c, zc, cfg)
             if why is None and c["group"] == "reversal" and cfg.gear_stiffness is not None:
@@ -2233,7 +2292,7 @@ def run_loop(
             if why is not None:
                 rejected.append({"kind": c["kind"], "step": step, "cv_gain_pct": c["cv_gain_pct"], "cv_z": c["cv_z"],
                                  "explained_pct": c["explained_pct"], "reason": why,
-                                 "also": [r for r in static if r != why]})
+                                 "also": [r for _, r in static if r != why], "rules": [rule for rule, _ in static]})
                 continue
             passing.append(c)
         if not passing:
@@ -2354,10 +2413,15 @@ def run_loop(
                  key=lambda u: -u["cv_gain_pct"])
     for u in und:
         if u["reason"] == UNDECIDED_REVERSALS:
+            adv = u.get("advised_reversals")
             u["note"] = (f"predicts held-out blocks better by {u['cv_gain_pct']:.1f} % (z = {u['cv_z']:.1f}), but the record has "
                          f"{u['n_reversals']} velocity reversal(s); a gain confined to the reversals needs at least "
-                         f"{u['min_reversals']} to pass the rule (k reversals that all improve give at best p = 2^-k): not "
-                         f"decided by this record — record at least {u['min_reversals']} reversals to decide it")
+                         f"{u['min_reversals']} to pass the rule at all (k reversals that all improve give at best p = 2^-k)"
+                         + (f", and the rank test over the record's batches about {adv}, one per batch, where the batches "
+                            f"without a reversal are no better than chance: not decided by this record — record at least "
+                            f"{adv} reversals, spread over the record, to decide it" if adv is not None else
+                            ", and the record is too short for the rank test to pass at all: not decided by this record — "
+                            f"record a longer run with at least {u['min_reversals']} reversals spread over it to decide it"))
         else:
             u["note"] = (f"predicts held-out blocks better by {u['cv_gain_pct']:.1f} % (z = {u['cv_z']:.1f}), but {u['why']} — "
                          "not decided by this record: record it on a motion that is not periodic (a staircase, or sweeps "

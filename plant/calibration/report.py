@@ -8,8 +8,10 @@ carries the winner's head-to-head ``head_to_head_gain_pct``, ``head_to_head_z`` 
 ``{domain, frequency, share_pct}``), ``model_file``. Extra keys: ``units``, ``uncertainty``,
 ``significance`` (the rule), ``stribeck`` (the decision), ``rejected`` (candidates turned down:
 ``reason``, the first rule that refused it, and ``also``, the other rules of the record's geometry
-that refuse it too; ``loop._static_refusals``), ``undecided`` (effects that predict better but that the record cannot decide: reversal
-effects on too few reversals, with the number it would need, and terms the phase guard refuses on a
+that refuse it too, and ``rules``, the names of those geometry rules (``loop.GEOMETRY_RULES``;
+``loop._static_refusals``)), ``undecided`` (effects that predict better but that the record cannot decide: reversal
+effects on too few reversals, with ``min_reversals``, the fewest any test at the run's level can pass on,
+and ``advised_reversals``, what the rank test needs, ``loop.rank_batches_needed``; and terms the phase guard refuses on a
 periodic motion; ``reason``, ``note``), ``closed_loop`` (EMPS records), ``log``.
 
 Parameter names carry units; for linear records (``--linear``, EMPS) they follow the record:

@@ -36,7 +36,12 @@ __all__ = ["velocity_profile", "position_spectrum", "time_spectrum", "reversal_p
 MIN_CYCLES = 2.0
 
 
-def moving_mask(dq: np.ndarray, frac: float = 0.05) -> np.ndarray:
+#: A sample is in motion above this share of the 95th-percentile speed (:func:`moving_mask`; assumed:
+#: above the standstill rule's 2 %, so that the velocity's sign is that of a motion, not of noise).
+MOVING_FRAC = 0.05
+
+
+def moving_mask(dq: np.ndarray, frac: float = MOVING_FRAC) -> np.ndarray:
     """Samples in motion: ``|dq|`` above ``frac`` of its 95th percentile."""
     v95 = float(np.percentile(np.abs(dq), 95)) if dq.size else 0.0
     return np.abs(dq) > frac * v95
