@@ -113,7 +113,7 @@ def test_blind_20390_compliant_mode_is_not_named_backlash(monkeypatch, tmp_path)
     (why,) = [r["reason"] for r in rep["rejected"] if r["kind"] == "backlash"]
     assert "started from the candidate's" in why and "predicts held-out blocks as well" in why
     real = loop._spring_coulomb
-    monkeypatch.setattr(loop, "_spring_coulomb", lambda prep, cur, cfg, seed=None: real(prep, cur, cfg))
+    monkeypatch.setattr(loop, "_spring_coulomb", lambda prep, cur, cfg, seed=None, **kw: real(prep, cur, cfg, **kw))
     rep2 = calibrate(tmp_path / "r.csv", tmp_path / "out2", plots=False, gear_stiffness=stiffness)
     assert [e["kind"] for e in rep2["effects"]] == ["backlash"]
 

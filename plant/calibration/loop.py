@@ -898,7 +898,7 @@ def _beats_gear_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: L
             c["spring_seed"] = fc_c
     if spring is None:
         if c["kind"] == "backlash" and zc is not None:
-            _untested_spring(prep, cur, c, cfg, zc)      # report only (session 54)
+            _untested_spring(prep, cur, c, cfg, zc, cache)      # report only (session 54)
         return None
     loss, swing = spring
     g, z = cv_compare(loss, c["loss"])
@@ -956,7 +956,8 @@ SPRING_COULOMB_RTOL = 1e-3
 SPRING_COULOMB_MAX_REFITS = 40
 
 
-def _spring_coulomb(prep: Prepared, cur: FitResult, cfg: LoopConfig, seed: float | None = None) -> float | None:
+def _spring_coulomb(prep: Prepared, cur: FitResult, cfg: LoopConfig, seed: float | None = None,
+                    fixed_points: dict[float | None, float | None] | None = None) -> float | None:
     """The Coulomb level [N·m or N] that sets the declared spring's swing ``2Fc/K``: the fixed point of
     refitting the current model with the spring in it, started from the current fit's level; None
     without a declared stiffness, for a model whose friction already acts through it, where the
@@ -973,9 +974,14 @@ def _spring_coulomb(prep: Prepared, cur: FitResult, cfg: LoopConfig, seed: float
 
     ``seed`` [N·m or N]: where the current fit's Coulomb level is not positive (the bound holds it at 0,
     itself a fixed point of a spring without swing) the refits start from it instead (a reversal
-    candidate's own level, :func:`_beats_gear_spring`)."""
+    candidate's own level, :func:`_beats_gear_spring`).
+
+    ``fixed_points``: where given, the fixed point before the swing check is stored in it under
+    ``seed`` (the step's cache, so that :func:`_untested_spring` need not iterate again)."""
     k = cfg.gear_stiffness
     fc = _spring_fixed_point(prep, cur, cfg, seed)
+    if fixed_points is not None:
+        fixed_points[seed] = fc
     if fc is None or 2.0 * fc / k < MIN_TRANSITION_COUNTS * prep.position_resolution:
         return None
     return fc
@@ -1007,7 +1013,8 @@ def _spring_fixed_point(prep: Prepared, cur: FitResult, cfg: LoopConfig, seed: f
 UNTESTED_SPRING = "the declared gear spring could not be tested"
 
 
-def _untested_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: LoopConfig, zc: float) -> None:
+def _untested_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: LoopConfig, zc: float,
+                     cache: dict[str, Any]) -> None:
     """Say so in a backlash candidate's evidence where its declared spring could not be tested
     (session 54; called by :func:`_beats_gear_spring`). Report only: the candidate is not refused.
 
@@ -1021,7 +1028,9 @@ def _untested_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: Loo
     7.8 Hz compliant mode without a gap, named backlash). Here the session-38 question is asked for
     the report (:func:`plant.calibration.two_mass.gap_against_compliance`, a gap against the same
     two-mass drive without one at the run's level ``zc``) and its answer, or why it could not be
-    asked, is added to the evidence (``c["spring_untested"]`` True).
+    asked, is added to the evidence. ``cache``: the step's (:func:`_beats_gear_spring`), whose fixed
+    points (:func:`_spring_coulomb`) tell "no positive level" from "a swing under the resolution"
+    without iterating again.
 
     Why not a refusal: refusing where that question fails or cannot be asked was decided on never-used
     seeds and not kept — it acted on none of 400 two-mass records (22760–23959, both generators), a
@@ -1036,12 +1045,13 @@ def _untested_spring(prep: Prepared, cur: FitResult, c: dict[str, Any], cfg: Loo
     if not k or cur.spec.geared:
         return
     fc_c = _coulomb(c["fit"])
-    if _spring_fixed_point(prep, cur, cfg, seed=fc_c if fc_c > 0 else None) is not None:
+    # the attempt _beats_gear_spring made last: from the candidate's level where the current one is not positive
+    seed = fc_c if not _coulomb(cur) > 0 and fc_c > 0 else None
+    fps = cache.get("fixed_points", {})
+    if (fps[seed] if seed in fps else _spring_fixed_point(prep, cur, cfg, seed)) is not None:
         return     # a spring exists; its swing is under the resolution (the spring is a step)
     from plant.calibration.two_mass import gap_against_compliance   # two_mass imports this module
     g2, z2, info = gap_against_compliance(prep, cur, k, c["fit"].spec.backlash_width or 0.0, cfg.k_folds)
-    c["spring_untested"] = True
-    c["gain_over_compliance_pct"], c["z_over_compliance"] = g2, z2
     if predicts(g2, z2, zc):
         answer = (f"with the load's inertia a gap of {info['gap']:.3g} in the declared gear predicts held-out blocks "
                   f"better than the same drive without one (gain {g2:.2f} %, z = {z2:.1f})")
@@ -1058,7 +1068,7 @@ def _step_spring_coulomb(prep: Prepared, cur: FitResult, cfg: LoopConfig, cache:
     """:func:`_spring_coulomb`, once per loop step (``cache``: the step's dict, shared by the backlash
     candidate and :func:`_beats_gear_spring`)."""
     if "fc" not in cache:
-        cache["fc"] = _spring_coulomb(prep, cur, cfg)
+        cache["fc"] = _spring_coulomb(prep, cur, cfg, fixed_points=cache.setdefault("fixed_points", {}))
     return cache["fc"]
 
 
@@ -1067,7 +1077,8 @@ def _gear_spring_losses(prep: Prepared, cur: FitResult, cfg: LoopConfig,
     """CV prediction errors of the current model with the declared spring in it, and the spring's
     swing ``2Fc/K``; None where :func:`_spring_coulomb` is None. With ``seed`` the spring's Coulomb
     level is started from it (:func:`_spring_coulomb`), not taken from the step's ``cache``."""
-    fc = _step_spring_coulomb(prep, cur, cfg, cache) if seed is None else _spring_coulomb(prep, cur, cfg, seed)
+    fc = (_step_spring_coulomb(prep, cur, cfg, cache) if seed is None else
+          _spring_coulomb(prep, cur, cfg, seed, fixed_points=cache.setdefault("fixed_points", {})))
     if fc is None:
         return None
     spring = dataclasses.replace(cur.spec.copy(), gear_stiffness=cfg.gear_stiffness, spring_coulomb=fc)
