@@ -34,12 +34,18 @@ def pytest_collection_finish(session):
 
     run = test_vcan_guest.start_if_collected(session.items)
     if run is not None:
-        test_vcan_guest.GUEST_RUN["run"] = run
+        test_vcan_guest.GUEST_RUN.update(run=run, session=session)
 
 
 def pytest_sessionfinish(session, exitstatus):
     import test_vcan_guest
 
+    # only the session that started the guest: `schmidt-fil conform` runs its suite with pytest.main
+    # inside the tests of test_conformance*.py, and those nested sessions call this hook too (found in
+    # CI, session 55: the first nested session dropped the guest run, and the test booted a second)
+    if test_vcan_guest.GUEST_RUN.get("session") is not session:
+        return
     run = test_vcan_guest.GUEST_RUN.pop("run", None)
+    test_vcan_guest.GUEST_RUN.pop("session", None)
     if run is not None:
         run.stop()
