@@ -16,7 +16,8 @@ import os
 # the vcan guest's QEMU keeps one of the two cores busy from the start of the session (below), and
 # OpenBLAS's two threads on the one core left spin against each other. Measured in CI (session 55):
 # tests of 26–31 s took 4–9 min each while the guest ran. The suite passed both ways (CI ran two
-# threads until session 55, local runs one); a value the user set is kept. Subprocesses (the CLI, the benchmark's workers) inherit it.
+# threads until session 55, local runs one); a value the user set is kept. Subprocesses (the CLI,
+# the benchmark's workers) inherit it.
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
