@@ -155,6 +155,10 @@ class LoopResult:
     baseline: FitResult
     final: FitResult
     accepted: list[AcceptedEffect]
+    #: candidates turned down: kind, step, gain, z, explained share, ``reason``, ``also`` (the other
+    #: rules that refuse it) and ``rules`` (their names); a line (time or position periodic) also its
+    #: refined ``line`` and, where another candidate of the step lies on the same line,
+    #: ``same_line_as`` (:func:`_lines_described`)
     rejected: list[dict[str, Any]]
     unexplained: list[dict[str, Any]]
     stribeck: dict[str, Any]
@@ -169,8 +173,8 @@ class LoopResult:
     out_of_library: list[dict[str, Any]] = dataclasses.field(default_factory=list)
     #: effects the record cannot decide, never named: ``reason`` :data:`UNDECIDED_REVERSALS` (a reversal
     #: effect on too few reversals, :func:`min_events`: ``n_reversals``, ``min_reversals``) or
-    #: :data:`UNDECIDED_PERIODIC` (refused by the phase guard after passing the rule: ``why``); kind,
-    #: step, gain, z, ``note``
+    #: :data:`UNDECIDED_PERIODIC` (refused by the phase guard after passing the rule: ``why``, and the
+    #: refined ``line``); kind, step, gain, z, ``note``
     undecided: list[dict[str, Any]] = dataclasses.field(default_factory=list)
 
     def effects(self) -> list[Effect]:
@@ -1622,6 +1626,53 @@ def _out_of_library(ctx: _Ctx) -> list[dict[str, Any]]:
     return out
 
 
+#: Two line candidates of one kind whose refined lines lie closer than this many of the record's
+#: frequency bins (one bin: one cycle over the record's time for a time line, over the travel for a
+#: position line) are reported as the same line (session 56; report only, every candidate is still
+#: tested and counted in the significance level). Why half a bin: lines closer than one bin cannot be
+#: resolved by the record (the Rayleigh limit of the spectrum that proposed them); each peak's
+#: refinement is free over ±2 bins, so the main lobe and a side lobe of one line end on the same
+#: minimum. Session 55 tried dropping such duplicates before the test (one candidate, a smaller
+#: level): on never-used records it gained none and lost one, because two refinements 0.12 bins apart
+#: can still get different phase-guard verdicts (docs/calibration.md, "Session 55").
+SAME_LINE_BINS = 0.5
+
+
+def _line_of(ctx: _Ctx, c: dict[str, Any]) -> tuple[float, float, str] | None:
+    """A line candidate's refined line: frequency, the record's bin for it and the unit — [Hz] and
+    1/T for a time line, [cycles/rad or cycles/m] and 1/travel for a position line; None for every
+    other kind."""
+    spec = c["fit"].spec
+    if c["kind"] == "time_periodic":
+        t = ctx.prep.t_dec
+        return float(spec.time_frequencies[c["slot"]]), 1.0 / float(t[-1] - t[0]), "Hz"
+    if c["kind"] == "position_periodic":
+        return 1.0 / float(spec.position_periods[c["slot"]]), 1.0 / ctx.span, f"cycles/{ctx.unit_pos}"
+    return None
+
+
+def _lines_described(ctx: _Ctx, cands: list[dict[str, Any]]) -> None:
+    """Give every line candidate its refined line, ``line`` = ``{"frequency", "unit"}``, and one that
+    lies within :data:`SAME_LINE_BINS` bins of a candidate of its kind with a lower in-sample rss
+    ``same_line_as`` = ``{"frequency", "bins_apart"}`` (that candidate's line). Report only: the loop
+    tests every candidate as before.
+
+    Until session 56 a rejected line said neither which line it was nor that two or three spectrum
+    peaks (one line's main lobe and side lobes) had been refined onto it: used independent 22031
+    reported the same refusal of a time line three times."""
+    seen: dict[str, list[float]] = {}
+    for c in sorted(cands, key=lambda c: c["fit"].rss):
+        ln = _line_of(ctx, c)
+        if ln is None:
+            continue
+        f, b, unit = ln
+        c["line"] = {"frequency": f, "unit": unit}
+        same = next((g for g in seen.get(c["kind"], []) if abs(g - f) < SAME_LINE_BINS * b), None)
+        if same is not None:
+            c["same_line_as"] = {"frequency": same, "bins_apart": abs(same - f) / b}
+        seen.setdefault(c["kind"], []).append(f)
+
+
 def _candidates(ctx: _Ctx) -> list[dict[str, Any]]:
     out = []
     for kind in ctx.cfg.kinds:
@@ -2137,7 +2188,8 @@ def _undecided_periodic(undecided: dict[str, dict[str, Any]], c: dict[str, Any],
     kind is kept."""
     if c["cv_gain_pct"] > undecided.get(c["kind"], {}).get("cv_gain_pct", 0.0):
         undecided[c["kind"]] = {"kind": c["kind"], "reason": UNDECIDED_PERIODIC, "step": step,
-                                "cv_gain_pct": c["cv_gain_pct"], "cv_z": c["cv_z"], "why": why}
+                                "cv_gain_pct": c["cv_gain_pct"], "cv_z": c["cv_z"], "why": why,
+                                **{k: c[k] for k in ("line",) if k in c}}
 
 
 def _static_refusals(c: dict[str, Any], cur: FitResult, cfg: LoopConfig, prep: Prepared, dwell_swings: np.ndarray,
@@ -2289,6 +2341,7 @@ def run_loop(
             _evaluate(prep, c, loss_cur, cfg)
             c["explained_pct"] = 100.0 * (cur.rss - c["fit"].rss) / cur.rss
             c["delta_bic"] = delta_bic(cur.rss, c["fit"].rss, c["fit"].n_params - cur.n_params, cur.n_eff)
+        _lines_described(ctx, cands)
         cands.sort(key=lambda c: -c["cv_gain_pct"])
         # Bonferroni over every candidate test the run may make: family-wise error family_alpha
         zc = z_critical(cfg.family_alpha, len(cands) * cfg.max_effects)
@@ -2366,7 +2419,8 @@ def run_loop(
             if why is not None:
                 rejected.append({"kind": c["kind"], "step": step, "cv_gain_pct": c["cv_gain_pct"], "cv_z": c["cv_z"],
                                  "explained_pct": c["explained_pct"], "reason": why,
-                                 "also": [r for _, r in static if r != why], "rules": [rule for rule, _ in static]})
+                                 "also": [r for _, r in static if r != why], "rules": [rule for rule, _ in static],
+                                 **{k: c[k] for k in ("line", "same_line_as") if k in c}})
                 continue
             passing.append(c)
         if not passing:

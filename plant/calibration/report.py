@@ -9,7 +9,9 @@ carries the winner's head-to-head ``head_to_head_gain_pct``, ``head_to_head_z`` 
 ``significance`` (the rule), ``stribeck`` (the decision), ``rejected`` (candidates turned down:
 ``reason``, the first rule that refused it, and ``also``, the other rules of the record's geometry
 that refuse it too, and ``rules``, the names of those geometry rules (``loop.GEOMETRY_RULES``;
-``loop._static_refusals``)), ``undecided`` (effects that predict better but that the record cannot decide: reversal
+``loop._static_refusals``); a rejected line also ``line {frequency, unit}``, its refined frequency, and
+``same_line_as {frequency, bins_apart}`` where another candidate of the step lies within half a bin of it,
+``loop._lines_described``), ``undecided`` (effects that predict better but that the record cannot decide: reversal
 effects on too few reversals, with ``min_reversals``, the fewest any test at the run's level can pass on,
 and ``advised_reversals``, what the rank test needs, ``loop.rank_batches_needed``; and terms the phase guard refuses on a
 periodic motion; ``reason``, ``note``), ``closed_loop`` (EMPS records), ``log``.
@@ -407,6 +409,22 @@ def _fmt(v: Any) -> str:
     return f"{v:.5g}" if isinstance(v, (float, int)) and not isinstance(v, bool) else str(v)
 
 
+def _line_name(x: dict[str, Any]) -> str:
+    """A candidate's kind, with its refined line (``line``) for a periodic one."""
+    return x["kind"] + (f" at {x['line']['frequency']:.6g} {x['line']['unit']}" if "line" in x else "")
+
+
+def _rejected_name(x: dict[str, Any]) -> str:
+    """A rejected candidate's kind, with its refined line for a periodic one and, where several
+    spectrum peaks were refined onto one line, which (session 56)."""
+    name = _line_name(x)
+    if "same_line_as" in x:
+        s = x["same_line_as"]
+        name += (f" (the same line as the candidate at {s['frequency']:.6g} {x['line']['unit']}, {s['bins_apart']:.2f} bins "
+                 "apart: another spectrum peak refined onto it; each peak is a test of its own in the significance level)")
+    return name
+
+
 def _markdown(r: dict[str, Any]) -> str:
     u = r["units"]
     L = [f"# Calibration report: `{r['record']}`", ""]
@@ -477,7 +495,7 @@ def _markdown(r: dict[str, Any]) -> str:
                  + (f" — {x['note']}" if x.get("note") else ""))
     if r.get("undecided"):
         L += ["", "## Not decided by this record", ""]
-        L += [f"- {x['kind']}: {x['note']}." for x in r["undecided"]]
+        L += [f"- {_line_name(x)}: {x['note']}." for x in r["undecided"]]
     L += ["", "## Significance rule", "", r["significance"]]
     if r.get("drive_periods"):
         L += ["", "Declared periods of the drive (--drive-periods; exempt from the line-resolution limit): "
@@ -489,7 +507,7 @@ def _markdown(r: dict[str, Any]) -> str:
               "inside the spring, its width the gap ('Session 35')."]
     L += ["", "## Candidates rejected", ""]
     for x in r["rejected"]:
-        L.append(f"- step {x['step']}: {x['kind']} — {x['reason']}"
+        L.append(f"- step {x['step']}: {_rejected_name(x)} — {x['reason']}"
                  + "".join(f"; also: {a}" for a in x.get("also", [])))
     L += ["", "## Uncertainty caveat", "", r["uncertainty"]["note"] + ".", ""]
     L += [f"Calibrated plant parameter file: `{r['model_file']}`.", ""]
