@@ -2392,7 +2392,24 @@ def run_loop(
                 # within one frequency bin (1/T, Rayleigh) of a guarded harmonic: not resolvable from it
                 f_c = c["fit"].spec.time_frequencies[c["slot"]]
                 k_near = max(1, min(phase_k, round(f_c / phase_hz)))
-                if abs(f_c - k_near * phase_hz) < 1.0 / t_span:
+                near_any = abs(f_c - k_near * phase_hz) < 1.0 / t_span
+                if half_wave is not None:
+                    # a half-wave symmetric motion (session 56): the model's own error along it holds only the odd
+                    # harmonics of the motion's fundamental (session 42), so only those are lines this record cannot
+                    # tell a disturbance from; near an even harmonic the line goes on to the phase guard's test and
+                    # competes with the symmetry-breaking kinds, as gravity's even part does
+                    k_odd = min(range(1, guard_k + 1, 2), key=lambda k: abs(f_c - k * guard_hz))
+                    if abs(f_c - k_odd * guard_hz) < 1.0 / t_span:
+                        why = (f"the motion is periodic and half-wave symmetric (the odd harmonics 1..{guard_k} of "
+                               f"{guard_hz:.4g} Hz explain {100 * half_wave[2]:.1f} % of the velocity) and the line at "
+                               f"{f_c:.5g} Hz lies within one frequency bin (1/T = {1.0 / t_span:.3g} Hz) of its harmonic "
+                               f"{k_odd}: this record cannot resolve it from a function of the motion's phase")
+                        _undecided_periodic(undecided, c, step, why)
+                    elif near_any:
+                        log.append(f"step {step}: the time line at {f_c:.5g} Hz lies within one frequency bin of the "
+                                   f"motion's line at {k_near * phase_hz:.5g} Hz, not an odd harmonic of its fundamental "
+                                   f"{guard_hz:.4g} Hz: tested by the phase guard instead (session 56)")
+                elif near_any:
                     why = (f"the motion is periodic ({phase_k} harmonics of {phase_hz:.4g} Hz explain "
                            f"{100 * phase_share:.1f} % of the velocity) and the line at {f_c:.5g} Hz lies within one frequency "
                            f"bin (1/T = {1.0 / t_span:.3g} Hz) of its harmonic {k_near}: this record cannot resolve it from "
