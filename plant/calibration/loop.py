@@ -45,7 +45,9 @@ Algorithm
    only the motion's odd harmonics, the only lines the error of a model symmetric in the motion
    can have, and the library candidates that pass compete on their gain beyond them (session 42);
    a time-periodic candidate within one frequency bin (``1/T``, the record's
-   Rayleigh resolution) of one of those K harmonics is refused outright. Transitions (pre-sliding
+   Rayleigh resolution) of one of those K harmonics is refused outright — on a half-wave
+   symmetric motion of one of its odd harmonics only; near an even one it goes on to the guard's
+   test and the competition (session 56). Transitions (pre-sliding
    displacement, backlash width) under :data:`MIN_TRANSITION_COUNTS` position quanta are not
    resolved and not added, nor are time or position lines whose amplitude, as the inertial torque
    of a motion, is a displacement under that many quanta (:func:`_line_resolved`). A candidate whose
