@@ -134,7 +134,8 @@ class LoopConfig:
     #: only to measure the test's effect
     count_alias_guard: bool = True
     #: on a half-wave symmetric periodic motion the phase guard holds the odd harmonics of the
-    #: motion only (:func:`half_wave_fundamental`, session 42); False only to measure its effect
+    #: motion only (:func:`half_wave_fundamental`, session 42), and a time line is refused as
+    #: unresolvable only within one bin of those (session 56); False only to measure its effect
     odd_phase_guard: bool = True
 
 
