@@ -41,9 +41,11 @@ than the loop's final model (blocked cross-validation, the folds and comparison 
 gain, as :func:`plant.calibration.loop._beats_gear_spring`: the effect is already named, only its
 size is estimated). The named effects never change.
 
-The same description also decides, inside the loop, between a gap and a compliant mode where the
+The same description also compares, inside the loop, a gap with a compliant mode where the
 massless backlash candidate loses to the massless declared spring (:func:`gap_against_compliance`,
-session 38): there a named effect can change.
+session 38). From session 38 to 56 a gap that won there was named; since session 57 the answer is
+reported in the candidate's refusal only (a gap is one more way to fit a compliant mode's ringing;
+docs/calibration.md, "Session 57, second change"), so no named effect changes here.
 """
 
 from __future__ import annotations
