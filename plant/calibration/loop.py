@@ -1210,6 +1210,35 @@ def _replaces_inertia(cur: FitResult, new: FitResult) -> str | None:
     return None
 
 
+def _removes_friction(cur: FitResult, new: FitResult) -> str | None:
+    """None unless the direction split drives a positive friction level to its bound 0, else why it is refused.
+
+    With the split the offset is absorbed into the two levels (``coulomb_pos = Fc + offset``,
+    ``coulomb_neg = Fc − offset``, :func:`plant.calibration.fit.design`), so the current model's own
+    levels while moving are ``Fc ± offset``. Where the current model has a positive level in a
+    direction and the asymmetric fit can use the split only by pushing that direction's level to its
+    bound 0 (unbounded, below it: a torque that helps the motion), the split is not describing that
+    direction's friction — a drive's friction opposes motion both ways — but standing in for a torque
+    of something else, as :func:`_replaces_inertia` for the inertia. Found on blind records whose
+    hidden effect is a compliant mode (24950, 24994, 25174) or a backlash (24886): the split took
+    17–44 % of the held-out error with one level at 0 and the viscous slopes up to 6× apart, while
+    on 44 records of either generator that hide asymmetric friction no named split had a level at
+    its bound (session 58, docs/calibration.md). When the current model already has no friction in
+    that direction (``Fc ± offset ≤ 0``: an offset as large as the friction) the rule does not
+    apply: the split may be what describes it.
+    """
+    if not {"coulomb", "offset"} <= set(cur.names) or not {"coulomb_pos", "coulomb_neg"} <= set(new.names):
+        return None
+    fc, off = _coulomb(cur), cur.param("offset")
+    for name, level, word in (("coulomb_pos", fc + off, "v > 0"), ("coulomb_neg", fc - off, "v < 0")):
+        if level > 0 and new.param(name) <= 0:
+            return (f"takes a direction's friction away: the split puts the Coulomb level for {word} at its bound 0, "
+                    f"where the model without it has {level:.4g} there (Fc {fc:.4g} with the offset {off:+.4g}), so "
+                    "the split stands in for a torque that is not that direction's friction (friction opposes "
+                    "motion both ways)")
+    return None
+
+
 def friction_levels(fit: FitResult) -> tuple[float, float]:
     """Coulomb level ``Fc`` and static level ``Ts`` of a fit (the mean of the two directions when
     friction is asymmetric; the mean over the record's time when a friction drift is in the model,
@@ -2209,7 +2238,8 @@ def _static_refusals(c: dict[str, Any], cur: FitResult, cfg: LoopConfig, prep: P
     them (session 52): the share floor (:func:`_below_share_floor`), the resolution limits
     (:func:`_resolved`, :func:`_line_resolved`), the stick at the reversals (:func:`_sticks_at_reversals`,
     reversal kinds), the count-rate alias (:func:`_count_alias`) — library kinds only — and, for every
-    kind, the inertia (:func:`_replaces_inertia`); each by its name in :data:`GEOMETRY_RULES`.
+    kind, the inertia (:func:`_replaces_inertia`), and for asymmetric friction a direction's friction level
+    (:func:`_removes_friction`, session 58); each by its name in :data:`GEOMETRY_RULES`.
 
     These rules read only the candidate's fit and figures the run computed once (no refit), so all of
     them are evaluated for every candidate with a positive held-out gain (one without has nothing to
@@ -2254,12 +2284,15 @@ def _static_refusals(c: dict[str, Any], cur: FitResult, cfg: LoopConfig, prep: P
                                                    cfg.drive_periods, span)),
                 ("count_alias", _count_alias(c["fit"], c["kind"], c["slot"], alias_runs, alias_q, 1.0 / prep.dt_s))]
     out.append(("inertia", _replaces_inertia(cur, c["fit"])))
+    if c["kind"] == "asymmetric_friction":
+        out.append(("friction_bound", _removes_friction(cur, c["fit"])))
     return [(rule, why) for rule, why in out if why]
 
 
 #: The rules of :func:`_static_refusals`, in the order the loop applies them; ``rejected[i]["rules"]`` names
 #: those that refuse a candidate (session 53: the names let a tool count refusals without matching words).
-GEOMETRY_RULES = ("share_floor", "resolution", "stick_at_reversals", "line_resolution", "count_alias", "inertia")
+GEOMETRY_RULES = ("share_floor", "resolution", "stick_at_reversals", "line_resolution", "count_alias", "inertia",
+                  "friction_bound")
 
 
 def _evaluate(prep: Prepared, c: dict[str, Any], loss_cur: np.ndarray, cfg: LoopConfig) -> None:
