@@ -1222,8 +1222,8 @@ def _removes_friction(cur: FitResult, new: FitResult) -> str | None:
     of something else, as :func:`_replaces_inertia` for the inertia. Found on blind records whose
     hidden effect is a compliant mode (24950, 24994, 25174) or a backlash (24886): the split took
     17–44 % of the held-out error with one level at 0 and the viscous slopes up to 6× apart, while
-    on 44 records of either generator that hide asymmetric friction no named split had a level at
-    its bound (session 58, docs/calibration.md). When the current model already has no friction in
+    on 60 records of either generator that hide asymmetric friction none of the 45 named splits had
+    a level at its bound (session 58, docs/calibration.md). When the current model already has no friction in
     that direction (``Fc ± offset ≤ 0``: an offset as large as the friction) the rule does not
     apply: the split may be what describes it.
     """
