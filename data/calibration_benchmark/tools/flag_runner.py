@@ -6,7 +6,7 @@ elsewhere the two runs are the same computation). With --two-mass only the recor
 hidden set holds backlash or a compliant mode are run (the generators' `plan()`).
 
 Usage (from the tree whose loop is to be run):
-    python flag_runner.py (PHRASE | --function NAME) [--two-mass] OUT.json (GEN:LO-HI ... | --seeds-from FILE)
+    python flag_runner.py (PHRASE | --function [MODULE.]NAME) [--two-mass] OUT.json (GEN:LO-HI ... | --seeds-from FILE)
 Output: one line per record (generator, seed, hidden, named, OK/BAD, "flag" where PHRASE occurred)
 and OUT.json, session 24's fields plus ``flag``.
 
@@ -52,10 +52,14 @@ def calibrate_record(gen, arg):
 
 
 def wrap_function(name):
-    """Wrap ``plant.calibration.loop.<name>`` so that each call returning something other than None counts
-    in ``CALLS``; the loop looks its functions up in the module at call time, so the wrapper is what runs.
-    False if the tree has no such function."""
-    from plant.calibration import loop
+    """Wrap ``plant.calibration.loop.<name>`` (or ``plant.calibration.<module>.<name>`` for ``module.name``)
+    so that each call returning something other than None counts in ``CALLS``; the module looks its
+    functions up at call time, so the wrapper is what runs (a caller in another module that imported the
+    name itself would not see it). False if the tree has no such function. Session 58's second decision
+    passed ``first_direction``, a function of ``fit``, and so flagged nothing."""
+    import importlib
+    modname, _, name = name.rpartition(".")
+    loop = importlib.import_module(f"plant.calibration.{modname or 'loop'}")
     if not hasattr(loop, name):
         return False
     fn = getattr(loop, name)
@@ -93,8 +97,9 @@ if __name__ == "__main__":
     if args[0] == "--function":
         args.pop(0)
         name = args.pop(0)
-        print(f"flag: calls of loop.{name} that returned something" if wrap_function(name)
-              else f"flag: loop.{name} does not exist in this tree, the flag is always false", flush=True)
+        where = name if "." in name else f"loop.{name}"
+        print(f"flag: calls of {where} that returned something" if wrap_function(name)
+              else f"flag: {where} does not exist in this tree, the flag is always false", flush=True)
     else:
         PHRASE = args.pop(0)
     if args[0] == "--two-mass":
