@@ -11,47 +11,38 @@ measurement chain, no code from ``plant``).
 """
 from __future__ import annotations
 
-import numpy as np
 import pytest
+from fit_stubs import BASE, stub_fit
 
-from plant.calibration import fit, loop
+from plant.calibration import loop
 from plant.calibration.blind_records import make_record as make_blind
 from plant.calibration.report import calibrate
 
 
-def _fit(names, coef):
-    n = 5
-    z = np.zeros(n)
-    return fit.FitResult(spec=fit.ModelSpec(), names=list(names), coef=np.asarray(coef, float), std=np.zeros(len(names)),
-                         std_eff=np.zeros(len(names)), residual=z, yhat=z, rss=0.0, rms=0.0, relative_error_pct=0.0,
-                         n=n, n_eff=float(n), n_params=len(names))
-
-
-BASE = ("inertia", "viscous", "coulomb", "offset")
 SPLIT = ("inertia", "viscous_pos", "viscous_neg", "coulomb_pos", "coulomb_neg")
 
 
 @pytest.mark.parametrize("cp, cn, word", [(0.0, 3.32, "v > 0"), (2.67, 0.0, "v < 0")])
 def test_a_split_that_drives_a_positive_level_to_its_bound_is_refused_with_the_reason(cp, cn, word):
     # blind 24994's and 25174's fits (Fc 3.21 with offset +0.06; the split's levels)
-    cur = _fit(BASE, [0.04, 16.2, 3.21, 0.06])
-    why = loop._removes_friction(cur, _fit(SPLIT, [0.04, 92.3, 14.4, cp, cn]))
+    cur = stub_fit(BASE, [0.04, 16.2, 3.21, 0.06])
+    why = loop._removes_friction(cur, stub_fit(SPLIT, [0.04, 92.3, 14.4, cp, cn]))
     assert why is not None and word in why and "bound 0" in why, why
 
 
 def test_a_split_with_both_levels_positive_is_not_touched():
     # the smallest ratio of the two levels among 45 named splits on records hiding asymmetric friction: 0.43
-    cur = _fit(BASE, [8.05, 59.0, 1.9, 0.8])
-    assert loop._removes_friction(cur, _fit(SPLIT, [8.05, 49.6, 68.2, 2.76, 1.19])) is None
+    cur = stub_fit(BASE, [8.05, 59.0, 1.9, 0.8])
+    assert loop._removes_friction(cur, stub_fit(SPLIT, [8.05, 49.6, 68.2, 2.76, 1.19])) is None
 
 
 def test_where_the_offset_is_as_large_as_the_friction_the_split_may_describe_it():
     # an offset larger than the friction (an unbalanced axis on a short arc): the model without the split
     # already has no friction for v < 0 (Fc − offset < 0), so a level at 0 there takes nothing away
-    cur = _fit(BASE, [5.0, 20.0, 1.0, 1.5])
-    assert loop._removes_friction(cur, _fit(SPLIT, [5.0, 25.0, 15.0, 2.5, 0.0])) is None
+    cur = stub_fit(BASE, [5.0, 20.0, 1.0, 1.5])
+    assert loop._removes_friction(cur, stub_fit(SPLIT, [5.0, 25.0, 15.0, 2.5, 0.0])) is None
     # …but the level for v > 0 (Fc + offset = 2.5 > 0) still may not be driven to 0
-    assert loop._removes_friction(cur, _fit(SPLIT, [5.0, 25.0, 15.0, 0.0, 0.5])) is not None
+    assert loop._removes_friction(cur, stub_fit(SPLIT, [5.0, 25.0, 15.0, 0.0, 0.5])) is not None
 
 
 def test_the_rule_is_named_among_the_geometry_rules():

@@ -7,41 +7,32 @@ a sinusoid — can then replace ``J·θ̈`` and "predict" better. An axis has a 
 such a candidate is refused (docs/calibration.md, "Session 14").
 """
 
-import numpy as np
 import pytest
+from fit_stubs import BASE, stub_fit
 
 from plant.calibration import fit, loop
 from plant.calibration.bench_records import make_record
 from plant.calibration.io import load_record
 
 
-def _fit(names, coef):
-    n = 5
-    z = np.zeros(n)
-    return fit.FitResult(spec=fit.ModelSpec(), names=list(names), coef=np.asarray(coef, float), std=np.zeros(len(names)),
-                         std_eff=np.zeros(len(names)), residual=z, yhat=z, rss=0.0, rms=0.0, relative_error_pct=0.0,
-                         n=n, n_eff=float(n), n_params=len(names))
-
-
-BASE = ("inertia", "viscous", "coulomb", "offset")
 
 
 def test_a_candidate_that_drives_the_inertia_to_zero_is_refused_with_the_reason():
-    cur = _fit(BASE, [13.7, 57.6, 2.5, 0.6])
-    why = loop._replaces_inertia(cur, _fit(BASE + ("grav_sin", "grav_cos"), [0.0, 57.5, 2.5, 0.6, -0.35, 0.60]))
+    cur = stub_fit(BASE, [13.7, 57.6, 2.5, 0.6])
+    why = loop._replaces_inertia(cur, stub_fit(BASE + ("grav_sin", "grav_cos"), [0.0, 57.5, 2.5, 0.6, -0.35, 0.60]))
     assert why is not None and "13.7" in why and "inertia" in why
 
 
 @pytest.mark.parametrize("j_new", [13.0, 0.8, 1e-6])
 def test_a_candidate_that_keeps_a_positive_inertia_is_not_touched(j_new):
-    cur = _fit(BASE, [13.7, 57.6, 2.5, 0.6])
-    assert loop._replaces_inertia(cur, _fit(BASE + ("grav_sin", "grav_cos"), [j_new, 57.5, 2.5, 0.6, -0.3, 0.6])) is None
+    cur = stub_fit(BASE, [13.7, 57.6, 2.5, 0.6])
+    assert loop._replaces_inertia(cur, stub_fit(BASE + ("grav_sin", "grav_cos"), [j_new, 57.5, 2.5, 0.6, -0.3, 0.6])) is None
 
 
 def test_when_the_current_model_has_no_inertia_the_candidate_may_repair_it():
     # benchmark development record 1046: the baseline's inertia sits at 0, real gravity brings it to ≈ 1
-    cur = _fit(BASE, [0.0, 7.6, 2.1, -0.4])
-    assert loop._replaces_inertia(cur, _fit(BASE + ("grav_sin", "grav_cos"), [0.0, 7.6, 2.1, -0.4, 1.0, 0.1])) is None
+    cur = stub_fit(BASE, [0.0, 7.6, 2.1, -0.4])
+    assert loop._replaces_inertia(cur, stub_fit(BASE + ("grav_sin", "grav_cos"), [0.0, 7.6, 2.1, -0.4, 1.0, 0.1])) is None
 
 
 def _named(path):
