@@ -137,9 +137,6 @@ class LoopConfig:
     #: motion only (:func:`half_wave_fundamental`, session 42), and a time line is refused as
     #: unresolvable only within one bin of those (session 56); False only to measure its effect
     odd_phase_guard: bool = True
-    #: a library candidate must still predict with an out-of-library description that predicts more
-    #: in both models (:func:`_beats_out_of_library`, session 59); False only to measure its effect
-    out_of_library_guard: bool = True
 
 
 @dataclasses.dataclass
@@ -485,72 +482,6 @@ def _beats_stribeck(prep: Prepared, cur: FitResult, c: dict[str, Any], zc: float
     return (f"with the Stribeck term (vs = {vs:.3g}, {which}) in both models the candidate no "
             f"longer predicts (gain {g:.2f} %, z = {z:.1f}, needs z ≥ {zc:.2f}): the reversal residual is low-speed "
             "friction, not a transition")
-
-
-def _beats_out_of_library(prep: Prepared, c: dict[str, Any], cands: list[dict[str, Any]], zc: float,
-                          cfg: LoopConfig) -> str | None:
-    """None unless the library candidate ``c`` is a slice of an out-of-library description of the
-    step, else why it is refused (session 59).
-
-    An out-of-library description (a friction drift, a torque-to-motion delay;
-    :data:`OUT_OF_LIBRARY`) can predict much of the held-out error and still not be chosen —
-    library first: it wins a step only if it predicts significantly better than the best library
-    candidate — and a library term can then be named on a consistent slice of the same structure
-    (used blind 21809: a torque delay; asymmetric friction named with a gain of 55 % while the
-    delay description predicted 91 %; used blind 24128: a friction drift, asymmetric friction at
-    17 % against the drift's 29 %). The issue's rule is that out-of-library structure is reported,
-    never forced into the nearest kind, and that effects competing for one residual are fitted
-    against each other. So, for each out-of-library description whose cross-validated gain is
-    larger than the candidate's, the model with both (the candidate's fit plus the description;
-    a drift with the shape chosen for its own candidate) is compared with each alone, on the same
-    held-out blocks at the run's level ``zc``:
-
-    - the candidate beside the description (both-model against the description alone) and
-    - the description beside the candidate (both-model against the candidate alone).
-
-    The candidate is refused where it no longer predicts beside the description while the
-    description still does beside it: the description holds what the candidate predicts, not the
-    other way round. Where neither holds beside the other the two describe the same structure and
-    the library kind keeps its place (library first; used independent 24110, a real asymmetric
-    friction whose drift description predicted 90.1 % against its 89.6 %). No number: "larger
-    gain" and the run's level. An intersection of tests: it can miss an effect, it cannot add one.
-
-    Parameters
-    ----------
-    prep : Prepared
-        The record.
-    c : dict
-        The library candidate (``fit``, ``loss``, ``cv_gain_pct``).
-    cands : list of dict
-        The step's evaluated candidates (``fit``, ``loss``, ``cv_gain_pct``, ``cv_z``), the
-        out-of-library ones among them (``group == "out-of-library"``).
-    zc : float
-        The run's critical z.
-    cfg : LoopConfig
-        ``k_folds``.
-    """
-    for o in cands:
-        if o.get("group") != "out-of-library" or not o["cv_gain_pct"] > max(c["cv_gain_pct"], 0.0):
-            continue
-        name = o["kind"]
-        both = c["fit"].spec.copy()
-        if name not in both.nuisance:
-            both.nuisance.append(name)
-        if name == "friction_drift":
-            both.drift_time_constant = o["fit"].spec.drift_time_constant
-            both.drift_heating = o["fit"].spec.drift_heating
-        loss_both = cv_losses(prep, both, cfg.k_folds)
-        g, z = cv_compare(o["loss"], loss_both)        # the candidate beside the description
-        go, zo = cv_compare(c["loss"], loss_both)      # the description beside the candidate
-        c.setdefault("beside_out_of_library", {})[name] = {"candidate": (g, z), "description": (go, zo)}
-        if not predicts(g, z, zc) and predicts(go, zo, zc):
-            what = "a friction drift" if name == "friction_drift" else "a delay between the torque and the motion"
-            return (f"the out-of-library description of {what} predicts more of the held-out error (gain "
-                    f"{o['cv_gain_pct']:.2f} %, z = {o['cv_z']:.1f}, against the candidate's {c['cv_gain_pct']:.2f} %); "
-                    f"beside it the candidate no longer predicts (gain {g:.2f} %, z = {z:.1f}, needs z ≥ {zc:.2f}) while "
-                    f"it still predicts beside the candidate (gain {go:.2f} %, z = {zo:.1f}): as far as this record can "
-                    "tell, the term is a slice of structure outside the library")
-    return None
 
 
 MIN_TRANSITION_COUNTS = 10.0
@@ -2540,9 +2471,6 @@ def run_loop(
                            f"longer predicts (gain {g:.2f} %, z = {z:.1f}): on this record it cannot be told apart from a "
                            "smooth error of the model along the motion's phase")
                     _undecided_periodic(undecided, c, step, why)
-            if why is None and c["kind"] in EFFECT_KINDS and cfg.out_of_library_guard:
-                # must still predict with an out-of-library description that predicts more in both models
-                why = _beats_out_of_library(prep, c, cands, zc, cfg)
             if why is None and prep_val is not None and (c["kind"] in EFFECT_KINDS or c["kind"] in TRANSFERABLE):
                 _, vr = predict(prep_val, c["fit"])
                 c["val_rms"] = float(np.sqrt(np.mean(vr**2)))
