@@ -1860,25 +1860,19 @@ def periodic_motion(prep: Prepared) -> tuple[float | None, float, int]:
         return None, 0.0, PHASE_HARMONICS
     if var <= 0:
         return None, 0.0, PHASE_HARMONICS
-    f, share, k, at_floor = _periodic_search(t, v, v0, var, dt_rows, PERIODIC_MIN_CYCLES, PERIODIC_MAX_HARMONICS)
-    if f is None or at_floor:
-        # a sinusoid-like motion (PHASE_HARMONICS harmonics suffice) from fewer cycles (session 47); also
-        # where the first search's fundamental is the lowest frequency it may try (PERIODIC_MIN_CYCLES cycles):
-        # the best it found is held at its limit, and the motion's may lie below it (session 59: used blind
-        # 27045, a sinusoid of 2.78 cycles, was "periodic" at 2.91 cycles, 5 % off, its 3 harmonics explaining
-        # 95.1 %; a guard on a fundamental 5 % off drifts by 0.8 rad over the record). There the sinusoid's
-        # fundamental is taken if it explains more of the velocity (with no more harmonics: k2 ≤ k)
-        f2, share2, k2, _ = _periodic_search(t, v, v0, var, dt_rows, PERIODIC_MIN_CYCLES_SINUSOID, PHASE_HARMONICS)
-        if f2 is not None and (f is None or share2 > share):
+    f, share, k = _periodic_search(t, v, v0, var, dt_rows, PERIODIC_MIN_CYCLES, PERIODIC_MAX_HARMONICS)
+    if f is None:
+        # a sinusoid-like motion (PHASE_HARMONICS harmonics suffice) from fewer cycles (session 47)
+        f2, share2, k2 = _periodic_search(t, v, v0, var, dt_rows, PERIODIC_MIN_CYCLES_SINUSOID, PHASE_HARMONICS)
+        if f2 is not None:
             return f2, share2, k2
     return f, share, k
 
 
 def _periodic_search(t: np.ndarray, v: np.ndarray, v0: np.ndarray, var: float, dt_rows: float, cycles: float,
-                     k_top: int) -> tuple[float | None, float, int, bool]:
+                     k_top: int) -> tuple[float | None, float, int]:
     """:func:`periodic_motion`'s search with at least ``cycles`` periods in the record and at most
-    ``k_top`` harmonics (same returns), and whether the fundamental is the lowest frequency of the
-    search's grid (held at its limit of ``cycles``)."""
+    ``k_top`` harmonics (same returns)."""
     n = t.size
     fs = 1.0 / dt_rows
     freqs = np.fft.rfftfreq(n, d=dt_rows)
@@ -1887,7 +1881,7 @@ def _periodic_search(t: np.ndarray, v: np.ndarray, v0: np.ndarray, var: float, d
     min_cycles = 0.97 * cycles
     ok = freqs >= min_cycles / t[-1]
     if not ok.any():
-        return None, 0.0, PHASE_HARMONICS, False
+        return None, 0.0, PHASE_HARMONICS
     f_peak = float(freqs[int(np.argmax(np.where(ok, spec, 0.0)))])
     grid: list[tuple[float, np.ndarray]] = []
 
@@ -1917,15 +1911,15 @@ def _periodic_search(t: np.ndarray, v: np.ndarray, v0: np.ndarray, var: float, d
             d = (hi - lo) / 40
             add(np.linspace(f_best - d, f_best + d, 21))
     if not grid:
-        return None, 0.0, PHASE_HARMONICS, False
+        return None, 0.0, PHASE_HARMONICS
     for k in range(PHASE_HARMONICS, k_top + 1):
         best_f, best_share = None, 0.0
         for f, sh in grid:
             if sh.size >= k and sh[k - 1] > best_share:
                 best_f, best_share = f, float(sh[k - 1])
         if best_f is not None and best_share >= PERIODIC_MIN_SHARE:
-            return best_f, best_share, k, best_f == min(g[0] for g in grid)
-    return None, max(float(sh[-1]) for _, sh in grid), PHASE_HARMONICS, False
+            return best_f, best_share, k
+    return None, max(float(sh[-1]) for _, sh in grid), PHASE_HARMONICS
 
 
 def periodic_motion_hz(prep: Prepared) -> tuple[float | None, float]:
