@@ -1,11 +1,15 @@
 """Session 60: the rank test's 40 batch means (d as % of the current model's mean loss, and that loss per batch)
 for the candidate whose held-out gain is TARGET % on one record (used independent 27126: asymmetric friction,
-gain 56.51 %, z = 1.8). Usage (repository root): python .../batch_means.py GENERATOR SEED TARGET"""
+gain 56.51 %, z = 1.8). Usage (repository root): python .../batch_means.py GENERATOR SEED TARGET; with INTERLEAVE=1 in the environment
+the folds are `probe_interleave.py`'s (40 blocks, fold = block mod 8; used 27126: TARGET 80.09)."""
 import sys, os, json
 import numpy as np
 sys.path.insert(0, os.getcwd()); sys.path.insert(0, "data/calibration_benchmark/session25_sweep_guard")
 import runner
 from plant.calibration import loop
+if os.environ.get("INTERLEAVE") == "1":
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    import probe_interleave  # noqa: F401  (patches loop.cv_losses_xy and two_mass.cv_losses_xy)
 orig = loop.cv_compare
 target = float(sys.argv[3])
 def wrap(err0, err1, n_batches=40):

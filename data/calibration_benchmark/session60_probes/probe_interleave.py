@@ -6,7 +6,7 @@ sys.path.insert(0, "data/calibration_benchmark/tools")
 sys.path.insert(0, "data/calibration_benchmark/session25_sweep_guard")
 from jobs import map_jobs, seed_jobs
 NB = int(os.environ.get("NB", "40"))
-from plant.calibration import loop, fit as _fit
+from plant.calibration import loop
 
 
 def cv_losses_xy(names, X, y, k_folds=8):
