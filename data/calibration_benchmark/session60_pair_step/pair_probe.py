@@ -1,5 +1,10 @@
 """Session 60 probe: at each step where no candidate passes, the two best library candidates (by held-out gain,
-positive) fitted together: the pair against the current model, and each member against the pair without it."""
+positive) fitted together: the pair against the current model, and each member against the pair without it.
+
+Usage (repository root): python .../pair_probe.py OUT.json GEN:LO-HI ... The figures for used 27032 and 27092 in
+docs/calibration.md ("Session 60, second part") are its output on those two records; its run over all of used
+27010-27159 was stopped unread once the change itself was written, and the change's run there
+(`change_used_27010_27159.*`) took its place. (Review, after the stop: a dead print branch removed.)"""
 import sys, os, json
 sys.path.insert(0, os.getcwd()); sys.path.insert(0, "data/calibration_benchmark/session25_sweep_guard")
 sys.path.insert(0, "data/calibration_benchmark/tools")
@@ -44,8 +49,6 @@ def wrap(ctx):
             gb, zb = loop.cv_compare(loop.cv_losses(ctx.prep, a["fit"].spec, k), lp)  # b beside a
             OUT.append(dict(step=len(ctx.present), present=sorted(ctx.present), a=a["kind"], ga=top[0][0], za=top[0][1], b=b["kind"], gb0=top[1][0], zb0=top[1][1],
                             pair=(gp, zp), a_beside_b=(ga, za), b_beside_a=(gb, zb), a_line=str(a.get("line")), b_line=str(b.get("line"))))
-            if False: OUT.append(f"step present={sorted(ctx.present)} A={a['kind']} {top[0][0]:.1f}/{top[0][1]:.2f} B={b['kind']} {top[1][0]:.1f}/{top[1][1]:.2f} "
-                       f"| pair {gp:.1f}/{zp:.2f} | A beside B {ga:.1f}/{za:.2f} | B beside A {gb:.1f}/{zb:.2f}")
     except Exception as e:
         OUT.append(f"error {e!r}")
     return cands
