@@ -35,9 +35,10 @@ def test_min_events_is_the_smallest_k_with_two_to_the_minus_k_below_the_level(al
 def test_a_backlash_on_five_reversals_is_reported_undecided_with_what_the_record_lacks(tmp_path):
     """Fresh benchmark seed 3022 (the independent generator: a 2-mass drive with a dead zone, 5
     velocity reversals): backlash predicts held-out blocks far better but cannot pass; nothing is
-    named, and report.json/report.md say it is undecided, that no test at the run's level passes on fewer
-    than 13 reversals, and that the rank test needs about 17 spread over the record (session 53: the
-    note advised 13, on which this test would still fail)."""
+    named, and report.json/report.md say it is undecided, that the rank test cannot pass on fewer than 13
+    reversals and the reversals' own test (Student's t, session 61) does not reach the level, and that the
+    rank test needs about 17 spread over the record (session 53: the note advised 13, on which this test
+    would still fail)."""
     path = tmp_path / "rec.csv"
     make_record(3022).write_csv(path)
     rep = calibrate(str(path), str(tmp_path / "out"), plots=False)
@@ -49,7 +50,9 @@ def test_a_backlash_on_five_reversals_is_reported_undecided_with_what_the_record
     assert u["advised_reversals"] == 17
     assert rep["undecided"][0]["kind"] == "backlash"       # the best of the competing reversal kinds first
     md = (tmp_path / "out" / "report.md").read_text()
-    assert "## Not decided by this record" in md and "at least 13 to pass the rule at all" in md
+    assert "## Not decided by this record" in md and "at least 13 to pass the rank test at all" in md
+    # since session 61 the reversals' own test was made too, and the note says it fell short
+    assert u["unit_test"] and "the reversals' own test does not reach the run's level" in md
     assert "record at least 17 reversals, spread over the record" in md
     assert json.loads((tmp_path / "out" / "report.json").read_text())["undecided"][0]["kind"] == "backlash"
 
