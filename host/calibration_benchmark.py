@@ -115,15 +115,17 @@ MIN_RUN_S = 0.5
 #: wind-up exceeds ~20 gaps, the gap adds under 1 % to the baseline's residual. A judgement, so B is
 #: reported apart from A.
 GAP_OVER_WINDUP_MIN = 0.05
-#: The fewest reversals at which a reversal kind can pass the loop's rule at all (13): the loop's
+#: The fewest reversals at which a reversal kind can pass the loop's rank test at all (13): the loop's
 #: family-wise level over 12 candidates × its most effects, as its Stribeck decision counts the tests
-#: — the rule's limit (class C), not physics.
+#: — the rank test's limit (class C), not physics. Since session 61 a reversal kind on fewer may still
+#: pass on its reversals' loss ratios (``loop.unit_compare``), so the ceiling "at the rule's level" is
+#: the rank test's, not a bound on what the loop names.
 MIN_REVERSALS = min_events(LoopConfig().family_alpha, 12 * LoopConfig().max_effects)
 #: Classes of a missed kind (:func:`miss_class`), in the order they are tried; E marks a wrong name.
 MISS_CLASSES = {
     "A": "not in the motion (asymmetric friction on one-way motion, a reversal kind without a reversal)",
     "B": f"a backlash gap under {GAP_OVER_WINDUP_MIN:.0%} of the declared gear's wind-up 2Fc/K",
-    "C": f"a reversal kind on fewer than {MIN_REVERSALS} reversals (the 1 % rank test cannot pass)",
+    "C": f"a reversal kind on fewer than {MIN_REVERSALS} reversals (the 1 % rank test cannot pass; only the reversals' t-test can)",
     "D": "another miss",
     "E": "a kind named that the record does not hide",
 }
@@ -493,7 +495,7 @@ def markdown(result: dict[str, Any]) -> str:
     lim = s.get("limits")
     if lim:
         L.append(f"- what the records allow (from their true motion, not the loop): exact sets nameable at all "
-                 f"**{lim['nameable']}/{s['n_records']}**, at the rule's level (≥ {lim['min_reversals']} reversals for a "
+                 f"**{lim['nameable']}/{s['n_records']}**, at the rank test's level (≥ {lim['min_reversals']} reversals for a "
                  f"reversal kind) **{lim['nameable_at_rule_level']}/{s['n_records']}**; the wrong ones by class: "
                  + ("; ".join(f"{k} {v['n']} {v['seeds']}" for k, v in lim["classes"].items()) or "none")
                  + " (" + "; ".join(f"{k}: {d}" for k, d in MISS_CLASSES.items()) + ")")

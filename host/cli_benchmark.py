@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
                                                       for k, v in s["per_kind"].items() if v["named"]))
     if s.get("limits"):
         lim = s["limits"]
-        print(f"what the records allow (true motion): nameable at all {lim['nameable']}/{s['n_records']}, at the rule's level "
+        print(f"what the records allow (true motion): nameable at all {lim['nameable']}/{s['n_records']}, at the rank test's level "
               f"{lim['nameable_at_rule_level']}/{s['n_records']}; wrong by class: "
               + ("; ".join(f"{k} {v['n']}" for k, v in lim["classes"].items()) or "none"))
     print(f"wrote {args.out}/benchmark.json and benchmark.md")
