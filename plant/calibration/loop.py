@@ -340,10 +340,11 @@ def unit_compare(loss0: np.ndarray, loss1: np.ndarray, units: np.ndarray) -> flo
     ``r_i = ln(Σ loss0 / Σ loss1)`` over each unit ``i`` (a stretch of the record holding one velocity
     reversal, :func:`reversal_units`); one-sided Student's t of their mean against 0 with ``k − 1``
     degrees of freedom, returned as the normal z of the same p-value so that it is compared with the
-    run's critical z like :func:`cv_compare`'s. Why not the rank test: a reversal effect's gain lies
+    run's critical z like :func:`cv_compare`'s. Why beside the rank test: a reversal effect's gain lies
     at the reversals, and ``k`` reversals that all improve give a sign-symmetric test at best
     ``p = 2⁻ᵏ`` (:func:`min_events`): on fewer than 13 no size or consistency of gain passes 1 %
-    family-wise. A unit's ratio is a sum over hundreds of samples around its reversal, so the ratios
+    family-wise (the rank test can still pass where the gain is spread beyond the counted reversals,
+    so it is kept; :func:`cv_compare` makes both). A unit's ratio is a sum over hundreds of samples around its reversal, so the ratios
     are close to normal and the t-test's level holds; the test uses how much each reversal improves
     beside how many. Under the null (the candidate does not predict better) the ratios scatter about a
     value ≤ 0. Units whose loss is 0 in either model (every sample left out as an extrapolation) are
@@ -352,8 +353,8 @@ def unit_compare(loss0: np.ndarray, loss1: np.ndarray, units: np.ndarray) -> flo
     Parameters
     ----------
     loss0, loss1 : ndarray, shape (M,)
-        Held-out squared errors of the current model and the candidate [N²·m²], 0 where a sample is not
-        compared.
+        Held-out squared errors of the current model and the candidate [(N·m)², N² on a linear record],
+        0 where a sample is not compared.
     units : ndarray of int, shape (k,)
         Start index of each unit (the first 0, increasing); a unit runs to the next start.
 
@@ -2370,9 +2371,10 @@ GEOMETRY_RULES = ("share_floor", "resolution", "stick_at_reversals", "line_resol
 
 def _told_from_other_reversal_kind(c: dict[str, Any], cands: list[dict[str, Any]], units: np.ndarray, zc: float,
                                    n_rev: int) -> str | None:
-    """None if the reversal candidate ``c``, tested on the reversals' units (:func:`unit_compare`), predicts
-    held-out blocks significantly better than the step's candidate of the other reversal kind, at the run's
-    level ``zc`` on the same units; else why not (session 61).
+    """None if the reversal candidate ``c``, whose test rests on the reversals' units (:func:`unit_compare`;
+    the rank test alone does not pass it), predicts held-out blocks significantly better than the step's
+    candidate of the other reversal kind, at the run's level ``zc`` on the same test (:func:`cv_compare`
+    with ``units``); else why not (session 61).
 
     On a record with fewer reversals than the rank test can pass on, a pre-sliding and a backlash both
     describe the same few transients: tested one by one each can pass, and the larger gain would pick a
@@ -2487,8 +2489,8 @@ def run_loop(
         # Bonferroni over every candidate test the run may make: family-wise error family_alpha
         zc = z_critical(cfg.family_alpha, len(cands) * cfg.max_effects)
         k_min = min_events(cfg.family_alpha, len(cands) * cfg.max_effects)
-        # fewer reversals than any sign test can pass on: a reversal candidate's tests are made on the
-        # per-reversal units' loss ratios instead of the rank test's batches (session 61, unit_compare)
+        # fewer counted reversals than a sign test can pass on: a reversal candidate's tests are made on the
+        # per-reversal units' loss ratios too, beside the rank test's batches (session 61, unit_compare)
         units = rev_units if (rev_units is not None and n_rev < k_min) else None
         for c in cands:
             _evaluate(prep, c, loss_cur, cfg, units if c["group"] == "reversal" else None)
