@@ -408,14 +408,15 @@ def single_test_z(cfg: "LoopConfig") -> float:
 
 
 def min_events(alpha: float, n_tests: int) -> int:
-    """Fewest independent events (batches that all improve) that can pass the rule at all.
+    """Fewest independent events (batches that all improve) that can pass the rank test at all.
 
     With ``k`` non-zero batch gains, the most extreme outcome under the symmetric null of
     :func:`cv_compare` (all ``k`` positive) has probability ``2⁻ᵏ``, so no size of gain passes the
     one-sided level ``alpha / n_tests`` unless ``k ≥ log₂(n_tests / alpha)`` (1 % over 60 tests:
     13). A reversal effect (pre-sliding, backlash) acts mostly near the velocity reversals, so on a
     record with fewer reversals than this its gain can pass only where it also helps away from them
-    (backlash on development record 1048 passed with 11); a refused one is reported as undecided.
+    (backlash on development record 1048 passed with 11), or on the reversals' own loss ratios
+    (:func:`unit_compare`, which uses the gains' sizes; session 61); a refused one is reported as undecided.
     """
     return int(math.ceil(math.log2(max(n_tests, 1) / alpha)))
 

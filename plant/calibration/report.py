@@ -12,7 +12,8 @@ that refuse it too, and ``rules``, the names of those geometry rules (``loop.GEO
 ``loop._static_refusals``); a rejected line also ``line {frequency, unit}``, its refined frequency, and
 ``same_line_as {frequency, bins_apart}`` where another candidate of the step lies within half a bin of it,
 ``loop._lines_described``), ``undecided`` (effects that predict better but that the record cannot decide: reversal
-effects on too few reversals, with ``min_reversals``, the fewest any test at the run's level can pass on,
+effects on too few reversals, with ``min_reversals``, the fewest a sign test (the rank test) can pass on at the run's level,
+``unit_test`` (the reversals' own t-test was made too, session 61)
 and ``advised_reversals``, what the rank test needs, ``loop.rank_batches_needed``; and terms the phase guard refuses on a
 periodic motion; ``reason``, ``note``), ``closed_loop`` (EMPS records), ``log``.
 
