@@ -73,10 +73,13 @@ def test_clean_records_whose_rest_error_rang_get_no_effect(seed, monkeypatch, tm
     hunting rule (session 44): on 1005 a slow stair sticks and slips at 3.9–6.4 s, and leaving it out
     removes the backlash as well, so with the rule on the control could not tell the ramp's work. For
     the same reason the control runs without session 45's reversal-stick rule: on 1006 the axis sticks
-    at its reversals and that rule refuses the ringing's pre-sliding as well."""
+    at its reversals and that rule refuses the ringing's pre-sliding as well — and without session 61's
+    reversals' t-test: on 1005 (5 counted reversals) its Bonferroni over the two tests lowers the
+    backlash's Stribeck re-test to z = 3.4 (needs 3.59), which then refuses the ringing's backlash too."""
     path = tmp_path / "rec.csv"
     make_record(seed).write_csv(path)        # through the CSV, as `calibrate` reads it
     assert _named(path) == []
     monkeypatch.setattr(fit, "stick_ramp", lambda c, rest: np.array(c, dtype=float))
     monkeypatch.setattr(loop, "STICK_SWING_OVER_FC", math.inf)
+    monkeypatch.setattr(loop, "reversal_units", lambda prep: None)
     assert _named(path, exclude_hunting=False) != []
