@@ -382,8 +382,7 @@ def reversal_units(prep: Prepared) -> np.ndarray | None:
     between consecutive reversals (the first unit from the record's start, the last to its end), for
     :func:`unit_compare`; the reversals are those :func:`plant.calibration.residuals.count_reversals`
     counts (session 46's cut, on the loop's own count). None with fewer than :data:`MIN_UNITS`."""
-    w = res._window_samples(prep.t_dec, 0.15)
-    rev = [k for k, _ in res.reversal_indices(prep.dq_dec) if k - w >= 0 and k + w < prep.dq_dec.size]
+    rev = res.counted_reversals(prep.t_dec, prep.dq_dec)
     if len(rev) < MIN_UNITS:
         return None
     return np.array([0] + [(a + b) // 2 for a, b in zip(rev[:-1], rev[1:])], dtype=int)
@@ -2493,6 +2492,7 @@ def run_loop(
         # fewer counted reversals than a sign test can pass on: a reversal candidate's tests are made on the
         # per-reversal units' loss ratios too, beside the rank test's batches (session 61, unit_compare)
         units = rev_units if (rev_units is not None and n_rev < k_min) else None
+        zc_rank_alone = z_critical(cfg.family_alpha, 2 * len(cands) * cfg.max_effects)   # the rank test at the doubled count
         for c in cands:
             _evaluate(prep, c, loss_cur, cfg, units if c["group"] == "reversal" else None)
             c["explained_pct"] = 100.0 * (cur.rss - c["fit"].rss) / cur.rss
@@ -2592,7 +2592,7 @@ def run_loop(
                 c["val_rms"] = float(np.sqrt(np.mean(vr**2)))
                 if not c["val_rms"] < val_cur:
                     why = f"held-out record: rms {val_cur:.4g} → {c['val_rms']:.4g} (does not fall)"
-            if why is None and c.get("unit_test") and not c["rank_z"] >= z_critical(cfg.family_alpha, 2 * len(cands) * cfg.max_effects):
+            if why is None and c.get("unit_test") and not c["rank_z"] >= zc_rank_alone:
                 # on the reversals' own test (session 61) the other reversal kind must lose head to head: a few
                 # reversals' transients fit a bristle and a gap alike, and a name the record cannot choose is undecided
                 why = _told_from_other_reversal_kind(c, cands, units, zc, n_rev)

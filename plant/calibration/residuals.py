@@ -249,11 +249,16 @@ def _window_samples(t: np.ndarray, window_s: float) -> int:
     return max(int(round(window_s / float(np.median(np.diff(t))))), 2)
 
 
-def count_reversals(t: np.ndarray, dq: np.ndarray, window_s: float = 0.15) -> int:
-    """Number of velocity reversals with their whole ±``window_s`` inside the record (those
-    :func:`reversal_profile` averages)."""
+def counted_reversals(t: np.ndarray, dq: np.ndarray, window_s: float = 0.15) -> list[int]:
+    """Indices of the velocity reversals (:func:`reversal_indices`) with their whole ±``window_s``
+    [s] inside the record (those :func:`reversal_profile` averages), in time order."""
     w = _window_samples(t, window_s)
-    return sum(1 for k, _ in reversal_indices(dq) if k - w >= 0 and k + w < dq.size)
+    return [k for k, _ in reversal_indices(dq) if k - w >= 0 and k + w < dq.size]
+
+
+def count_reversals(t: np.ndarray, dq: np.ndarray, window_s: float = 0.15) -> int:
+    """Number of :func:`counted_reversals`."""
+    return len(counted_reversals(t, dq, window_s))
 
 
 def reversal_profile(t: np.ndarray, dq: np.ndarray, resid: np.ndarray, window_s: float = 0.15) -> dict:
